@@ -1,0 +1,148 @@
+"""Element reference geometry, row-sum lumped mass, stable time step and element colouring.
+
+Everything here is computed once per model on the reference configuration (total Lagrangian):
+
+* ``B`` (ne, nen, dim): Flanagan-Belytschko mean shape-function gradients (1/V) int dN/dX dV,
+  which for Q4 equal the centroid gradients;
+* ``V0`` (ne,): element volume (2D: area times thickness), m^3;
+* ``gamma`` (ne, nen, nmodes): Flanagan-Belytschko hourglass shape vectors
+  gamma_k = (h_k - (h_k . x_i) B_i) / nen, which are orthogonal to every linear field;
+* lumped nodal masses m_a = rho int N_a dV (row sum of the consistent mass);
+* the stable time step from the element eigenvalue bound (Flanagan & Belytschko 1981;
+  Hughes 1987, sec. 9.3): omega_max^2 <= max_e lambda_max(K_e) / min_a m_a^e with K_e the
+  one-point stiffness plus the hourglass stiffness; dt = safety * 2 / omega_max.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from gearrom.errors import MeshError
+
+_XI2 = np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]])
+_XI3 = np.array([[-1.0, -1.0, -1.0], [1.0, -1.0, -1.0], [1.0, 1.0, -1.0], [-1.0, 1.0, -1.0],
+                 [-1.0, -1.0, 1.0], [1.0, -1.0, 1.0], [1.0, 1.0, 1.0], [-1.0, 1.0, 1.0]])
+
+
+def _shape(xi_nodes: np.ndarray, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Multilinear shape functions N (npt, nen) and derivatives dN (npt, nen, dim) at pts."""
+    fac = 1.0 + pts[:, None, :] * xi_nodes[None, :, :]          # (npt, nen, dim)
+    N = np.prod(fac, axis=2) / xi_nodes.shape[0]
+    dN = np.empty(fac.shape)
+    for j in range(xi_nodes.shape[1]):
+        other = np.prod(np.delete(fac, j, axis=2), axis=2)
+        dN[:, :, j] = xi_nodes[None, :, j] * other / xi_nodes.shape[0]
+    return N, dN
+
+
+def element_geometry(nodes: np.ndarray, elements: np.ndarray, thickness: float = 1.0):
+    """Mean gradients, volumes, hourglass vectors and element row-sum masses per unit density.
+
+    Returns
+    -------
+    B : ndarray (ne, nen, dim), 1/m
+    V0 : ndarray (ne,), m^3 (2D: area * thickness)
+    gamma : ndarray (ne, nen, nmodes), -
+    me : ndarray (ne, nen), m^3 (int N_a dV; multiply by rho for the mass)
+    """
+    dim = nodes.shape[1]
+    xi_nodes = _XI2 if dim == 2 else _XI3
+    g = 1.0 / np.sqrt(3.0)
+    grid = np.array(np.meshgrid(*([[-g, g]] * dim), indexing="ij")).reshape(dim, -1).T
+    N, dN = _shape(xi_nodes, grid)                                # (ng, nen), (ng, nen, dim)
+    X = nodes[elements]                                           # (ne, nen, dim)
+    J = np.einsum("eai,gaj->egij", X, dN)                         # dx_i/dxi_j
+    detJ = np.linalg.det(J)                                       # (ne, ng)
+    if np.any(detJ <= 0):
+        bad = int(np.nonzero(np.any(detJ <= 0, axis=1))[0][0])
+        raise MeshError(f"element {bad} is inverted or degenerate (det J <= 0 at a Gauss point); "
+                        f"check the node order (Q4 counter-clockwise, Hex8 VTK order)")
+    Jinv = np.linalg.inv(J)                                       # dxi_j/dx_i
+    dNdX = np.einsum("gaj,egji->egai", dN, Jinv)
+    V = detJ.sum(axis=1)                                          # Gauss weights are 1
+    B = np.einsum("egai,eg->eai", dNdX, detJ) / V[:, None, None]
+    me = np.einsum("ga,eg->ea", N, detJ)
+    if dim == 2:
+        H = np.array([[1.0], [-1.0], [1.0], [-1.0]])
+        V = V * thickness
+        me = me * thickness
+    else:
+        s = xi_nodes
+        H = np.stack([s[:, 1] * s[:, 2], s[:, 0] * s[:, 2], s[:, 0] * s[:, 1],
+                      s[:, 0] * s[:, 1] * s[:, 2]], axis=1)
+    nen = xi_nodes.shape[0]
+    hx = np.einsum("ak,eai->eki", H, X)                           # (ne, nmodes, dim)
+    gamma = (H[None, :, :] - np.einsum("eki,eai->eak", hx, B)) / nen
+    return (np.ascontiguousarray(B), np.ascontiguousarray(V), np.ascontiguousarray(gamma),
+            np.ascontiguousarray(me))
+
+
+def hourglass_coefficients(B: np.ndarray, V0: np.ndarray, lam: float, mu: float, rho: float,
+                           kappa: float, visc: float) -> tuple[np.ndarray, np.ndarray]:
+    """Per-element hourglass stiffness (N/m) and viscosity (N s/m) (Flanagan-Belytschko form)."""
+    dim = B.shape[2]
+    bb = np.einsum("eai,eai->e", B, B) / dim
+    khg = kappa * (lam + 2 * mu) * V0 * bb
+    chg = visc * np.sqrt(rho * (lam + 2 * mu)) * V0 * np.sqrt(bb)
+    return khg, chg
+
+
+def stable_time_step(B, V0, gamma, me, lam, mu, rho, khg) -> np.ndarray:
+    """Critical time step of each element, s (element eigenvalue bound, no safety factor)."""
+    ne, nen, dim = B.shape
+    if dim == 2:
+        D = np.array([[lam + 2 * mu, lam, 0.0], [lam, lam + 2 * mu, 0.0], [0.0, 0.0, mu]])
+        Bv = np.zeros((ne, 3, nen * dim))
+        Bv[:, 0, 0::2] = B[:, :, 0]
+        Bv[:, 1, 1::2] = B[:, :, 1]
+        Bv[:, 2, 0::2] = B[:, :, 1]
+        Bv[:, 2, 1::2] = B[:, :, 0]
+    else:
+        D = np.full((3, 3), lam) + 2 * mu * np.eye(3)
+        D = np.block([[D, np.zeros((3, 3))], [np.zeros((3, 3)), mu * np.eye(3)]])
+        Bv = np.zeros((ne, 6, nen * dim))
+        for i in range(3):
+            Bv[:, i, i::3] = B[:, :, i]
+        for r, (i, j) in enumerate(((1, 2), (0, 2), (0, 1))):
+            Bv[:, 3 + r, i::3] = B[:, :, j]
+            Bv[:, 3 + r, j::3] = B[:, :, i]
+    w, Q = np.linalg.eigh(D)
+    Dh = Q @ np.diag(np.sqrt(w)) @ Q.T
+    G = np.einsum("ij,ejk,elk,lm->eim", Dh, Bv, Bv, Dh)
+    lam_cs = np.linalg.eigvalsh(G)[:, -1] * V0
+    lam_hg = khg * np.einsum("eak,eak->e", gamma, gamma)
+    omega2 = (lam_cs + lam_hg) / (rho * me.min(axis=1))
+    return 2.0 / np.sqrt(omega2)
+
+
+@njit(cache=True)
+def color_elements(elements: np.ndarray, n_nodes: int) -> np.ndarray:
+    """Greedy colouring: elements of one colour share no node (safe parallel scatter)."""
+    ne, nen = elements.shape
+    count = np.zeros(n_nodes + 1, np.int64)
+    for e in range(ne):
+        for a in range(nen):
+            count[elements[e, a] + 1] += 1
+    for i in range(n_nodes):
+        count[i + 1] += count[i]
+    adj = np.empty(count[n_nodes], np.int64)
+    fill = count[:-1].copy()
+    for e in range(ne):
+        for a in range(nen):
+            n = elements[e, a]
+            adj[fill[n]] = e
+            fill[n] += 1
+    color = -np.ones(ne, np.int64)
+    used = np.zeros(64, np.int64) - 1
+    for e in range(ne):
+        for a in range(nen):
+            n = elements[e, a]
+            for k in range(count[n], count[n + 1]):
+                c = color[adj[k]]
+                if c >= 0:
+                    used[c] = e
+        c = 0
+        while used[c] == e:
+            c += 1
+        color[e] = c
+    return color

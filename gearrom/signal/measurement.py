@@ -1,0 +1,312 @@
+"""The ``gearrom.measurement/1`` format: JSON metadata, validation, and the writer.
+
+A JSON file describes one run and points to a data file (CSV or NI TDMS, path relative to
+the JSON). See ``docs/measurement-format.md`` for the full description. This module reads
+and validates the metadata (:func:`read_meta`) and writes complete measurements
+(:func:`write_measurement`) from an :class:`EdgeRecord` (encoder edge timestamps) or an
+:class:`AngleRecord` (angle histories).
+"""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+
+from gearrom.errors import MeasurementError
+
+FORMAT = "gearrom.measurement/1"
+CHANNELS = ("input", "output")
+Kind = Literal["edges", "angles"]
+
+_TOP_KEYS = {"format", "description", "rpm_in", "torque_out_Nm", "kind", "data", "clock_hz",
+             "encoders", "config", "extra"}
+_REQUIRED = {"format", "rpm_in", "kind", "data"}
+_ENCODER_KEYS = {"edges_per_rev", "location"}
+
+
+@dataclass(frozen=True)
+class EncoderInfo:
+    """One encoder channel.
+
+    Parameters
+    ----------
+    edges_per_rev : int
+        Counted edges per shaft revolution (pulses/rev times the decoding factor, e.g. 4).
+    location : str
+        Where the encoder sits, e.g. ``"sensor"`` or ``"clutch"`` (informative only).
+    """
+
+    edges_per_rev: int
+    location: str = "sensor"
+
+
+@dataclass(frozen=True)
+class MeasurementMeta:
+    """Validated metadata of one measurement (the JSON file).
+
+    Attributes
+    ----------
+    path : Path
+        The JSON file.
+    data_path : Path
+        The data file (absolute), ``.csv`` or ``.tdms``.
+    kind : {"edges", "angles"}
+    rpm_in : float
+        Nominal input speed in rpm.
+    clock_hz : float or None
+        Timestamp clock of the edge counter in Hz (required for kind "edges").
+    encoders : dict
+        ``{"input": EncoderInfo, "output": EncoderInfo}`` (required for kind "edges").
+    torque_out_Nm, description, config, extra
+        Optional information; ``config`` names a gear configuration for the TE.
+    """
+
+    path: Path
+    data_path: Path
+    kind: Kind
+    rpm_in: float
+    clock_hz: float | None = None
+    encoders: dict[str, EncoderInfo] = field(default_factory=dict)
+    torque_out_Nm: float | None = None
+    description: str = ""
+    config: str | None = None
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def data_format(self) -> Literal["csv", "tdms"]:
+        """``"csv"`` or ``"tdms"``, from the data file extension."""
+        return "tdms" if self.data_path.suffix.lower() == ".tdms" else "csv"
+
+
+def _num(doc: dict, key: str, where: str, *, positive: bool = True, required: bool = True) -> float | None:
+    val = doc.get(key)
+    if val is None:
+        if required:
+            raise MeasurementError(f"{where}: missing key {key!r}")
+        return None
+    if isinstance(val, bool) or not isinstance(val, (int, float)) or not math.isfinite(val):
+        raise MeasurementError(f"{where}: key {key!r} must be a finite number, got {val!r}")
+    if positive and val <= 0:
+        raise MeasurementError(f"{where}: key {key!r} must be > 0, got {val!r}")
+    return float(val)
+
+
+def read_meta(path: str | Path) -> MeasurementMeta:
+    """Read and validate a ``gearrom.measurement/1`` JSON file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The JSON metadata file.
+
+    Returns
+    -------
+    MeasurementMeta
+
+    Raises
+    ------
+    MeasurementError
+        The file is missing or unreadable, is not JSON, or a key is missing, unknown or of the
+        wrong type/value. The message names the file and the key.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+        doc = json.loads(text)
+    except FileNotFoundError:
+        raise MeasurementError(f"{path}: measurement file not found") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise MeasurementError(f"{path}: cannot read measurement file: {exc}") from None
+    except json.JSONDecodeError as exc:
+        raise MeasurementError(f"{path}: not valid JSON (line {exc.lineno}, column {exc.colno}): {exc.msg}") from None
+    where = str(path)
+    if not isinstance(doc, dict):
+        raise MeasurementError(f"{where}: top level must be a JSON object, got {type(doc).__name__}")
+    unknown = sorted(set(doc) - _TOP_KEYS)
+    if unknown:
+        raise MeasurementError(f"{where}: unknown key(s) {unknown}; allowed: {sorted(_TOP_KEYS)}")
+    missing = sorted(_REQUIRED - set(doc))
+    if missing:
+        raise MeasurementError(f"{where}: missing key(s) {missing}")
+    if doc["format"] != FORMAT:
+        raise MeasurementError(f"{where}: key 'format' must be {FORMAT!r}, got {doc['format']!r}")
+    kind = doc["kind"]
+    if kind not in ("edges", "angles"):
+        raise MeasurementError(f"{where}: key 'kind' must be 'edges' or 'angles', got {kind!r}")
+    data = doc["data"]
+    if not isinstance(data, str) or not data.strip():
+        raise MeasurementError(f"{where}: key 'data' must be a non-empty file name, got {data!r}")
+    data_path = (path.parent / data).resolve()
+    if data_path.suffix.lower() not in (".csv", ".tdms"):
+        raise MeasurementError(f"{where}: key 'data': unsupported data file type {data_path.suffix!r} "
+                               "(use .csv or .tdms)")
+    rpm_in = _num(doc, "rpm_in", where)
+    torque = _num(doc, "torque_out_Nm", where, positive=False, required=False)
+    clock_hz = _num(doc, "clock_hz", where, required=kind == "edges")
+    for key in ("description", "config"):
+        if key in doc and not isinstance(doc[key], str):
+            raise MeasurementError(f"{where}: key {key!r} must be a string, got {doc[key]!r}")
+    extra = doc.get("extra", {})
+    if not isinstance(extra, dict):
+        raise MeasurementError(f"{where}: key 'extra' must be an object, got {extra!r}")
+    encoders = _read_encoders(doc.get("encoders"), where, required=kind == "edges")
+    return MeasurementMeta(path=path, data_path=data_path, kind=kind, rpm_in=rpm_in, clock_hz=clock_hz,
+                           encoders=encoders, torque_out_Nm=torque, description=doc.get("description", ""),
+                           config=doc.get("config"), extra=extra)
+
+
+def _read_encoders(enc: Any, where: str, *, required: bool) -> dict[str, EncoderInfo]:
+    if enc is None:
+        if required:
+            raise MeasurementError(f"{where}: missing key 'encoders' (required for kind 'edges')")
+        return {}
+    if not isinstance(enc, dict):
+        raise MeasurementError(f"{where}: key 'encoders' must be an object, got {enc!r}")
+    unknown = sorted(set(enc) - set(CHANNELS))
+    if unknown:
+        raise MeasurementError(f"{where}: 'encoders' has unknown channel(s) {unknown}; allowed: {list(CHANNELS)}")
+    out = {}
+    for ch in CHANNELS:
+        if ch not in enc:
+            if required:
+                raise MeasurementError(f"{where}: 'encoders' is missing channel {ch!r}")
+            continue
+        e = enc[ch]
+        w = f"{where}: encoders.{ch}"
+        if not isinstance(e, dict):
+            raise MeasurementError(f"{w} must be an object, got {e!r}")
+        bad = sorted(set(e) - _ENCODER_KEYS)
+        if bad:
+            raise MeasurementError(f"{w}: unknown key(s) {bad}; allowed: {sorted(_ENCODER_KEYS)}")
+        n = e.get("edges_per_rev")
+        if isinstance(n, bool) or not isinstance(n, int) or n < 1:
+            raise MeasurementError(f"{w}: 'edges_per_rev' must be an integer >= 1, got {n!r}")
+        loc = e.get("location", "sensor")
+        if not isinstance(loc, str):
+            raise MeasurementError(f"{w}: 'location' must be a string, got {loc!r}")
+        out[ch] = EncoderInfo(edges_per_rev=n, location=loc)
+    return out
+
+
+@dataclass(frozen=True)
+class EdgeRecord:
+    """Encoder edge timestamps of both shafts.
+
+    Parameters
+    ----------
+    t_input_s, t_output_s : ndarray
+        Edge times in s, increasing, one per counted edge.
+    edges_per_rev : tuple of int
+        ``(input, output)`` counted edges per revolution.
+    clock_hz : float
+        Timestamp clock in Hz.
+    locations : tuple of str
+        ``(input, output)`` encoder locations.
+    """
+
+    t_input_s: np.ndarray
+    t_output_s: np.ndarray
+    edges_per_rev: tuple[int, int]
+    clock_hz: float
+    locations: tuple[str, str] = ("sensor", "sensor")
+
+
+@dataclass(frozen=True)
+class AngleRecord:
+    """Angle histories of both shafts on one time base (s, rad)."""
+
+    t_s: np.ndarray
+    theta_in_rad: np.ndarray
+    theta_out_rad: np.ndarray
+
+
+def _fmt_decimals(clock_hz: float) -> int:
+    return max(6, int(math.ceil(math.log10(clock_hz))) + 2)
+
+
+def write_measurement(path_json: str | Path, record: EdgeRecord | AngleRecord, *, rpm_in: float,
+                      torque_out_Nm: float | None = None, description: str = "", config: str | None = None,
+                      data_format: Literal["csv", "tdms"] = "csv", extra: dict | None = None) -> Path:
+    """Write a measurement: the JSON metadata and its data file next to it.
+
+    Parameters
+    ----------
+    path_json : str or Path
+        The JSON file to write; the data file gets the same stem with ``.csv`` or ``.tdms``.
+    record : EdgeRecord or AngleRecord
+        The data.
+    rpm_in : float
+        Nominal input speed in rpm.
+    torque_out_Nm, description, config, extra
+        Optional metadata (``config`` names the gear configuration).
+    data_format : {"csv", "tdms"}
+        Data file format.
+
+    Returns
+    -------
+    Path
+        The JSON file written.
+    """
+    path_json = Path(path_json)
+    data_path = path_json.with_suffix("." + data_format)
+    doc: dict[str, Any] = {"format": FORMAT, "description": description, "rpm_in": float(rpm_in)}
+    if torque_out_Nm is not None:
+        doc["torque_out_Nm"] = float(torque_out_Nm)
+    if config is not None:
+        doc["config"] = config
+    if isinstance(record, EdgeRecord):
+        doc.update(kind="edges", data=data_path.name, clock_hz=float(record.clock_hz),
+                   encoders={ch: {"edges_per_rev": int(n), "location": loc}
+                             for ch, n, loc in zip(CHANNELS, record.edges_per_rev, record.locations)})
+    elif isinstance(record, AngleRecord):
+        doc.update(kind="angles", data=data_path.name)
+    else:
+        raise TypeError(f"record must be an EdgeRecord or AngleRecord, got {type(record).__name__}")
+    if extra:
+        doc["extra"] = extra
+    if data_format == "csv":
+        _write_csv(data_path, record)
+    elif data_format == "tdms":
+        _write_tdms(data_path, record)
+    else:
+        raise ValueError(f"data_format must be 'csv' or 'tdms', got {data_format!r}")
+    path_json.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+    return path_json
+
+
+def _write_csv(path: Path, record: EdgeRecord | AngleRecord, chunk: int = 1_000_000) -> None:
+    import pandas as pd
+
+    with open(path, "w", newline="\n") as fh:
+        if isinstance(record, AngleRecord):
+            df = pd.DataFrame({"t_s": record.t_s, "theta_in_rad": record.theta_in_rad,
+                               "theta_out_rad": record.theta_out_rad})
+            df.to_csv(fh, index=False, float_format="%.12g", lineterminator="\n")
+            return
+        t = np.concatenate([record.t_input_s, record.t_output_s])
+        ch = np.concatenate([np.zeros(record.t_input_s.size, np.int8), np.ones(record.t_output_s.size, np.int8)])
+        order = np.argsort(t, kind="stable")
+        names = np.array(CHANNELS, dtype=object)
+        fmt = f"%.{_fmt_decimals(record.clock_hz)}f"
+        fh.write("channel,t_s\n")
+        for i in range(0, t.size, chunk):
+            idx = order[i:i + chunk]
+            pd.DataFrame({"channel": names[ch[idx]], "t_s": t[idx]}).to_csv(
+                fh, index=False, header=False, float_format=fmt, lineterminator="\n")
+
+
+def _write_tdms(path: Path, record: EdgeRecord | AngleRecord) -> None:
+    from nptdms import ChannelObject, TdmsWriter
+
+    with TdmsWriter(str(path)) as w:
+        if isinstance(record, AngleRecord):
+            w.write_segment([ChannelObject("angles", name, np.asarray(arr, np.float64))
+                             for name, arr in (("t_s", record.t_s), ("theta_in_rad", record.theta_in_rad),
+                                               ("theta_out_rad", record.theta_out_rad))])
+        else:
+            w.write_segment([ChannelObject("edges", "input", np.asarray(record.t_input_s, np.float64)),
+                             ChannelObject("edges", "output", np.asarray(record.t_output_s, np.float64))])
