@@ -1,0 +1,271 @@
+"""Node-to-segment penalty contact (2D: node to edge, 3D: node to bilinear quad facet).
+
+Search: the segment centroids are binned into a uniform cell grid covering only the overlap of the
+slave-node and master-segment bounding boxes (enlarged by one cell), so nodes far from the contact
+zone are skipped at once. A slave keeps up to ``K`` candidate segments of its own contact pair whose
+centroid lies within (segment radius + margin). The search is repeated when a contact node has moved
+by more than (margin - capture depth) / 2 since the last search, so no pair can be missed.
+
+Force: for the candidate with the projection inside the segment and the smallest penetration
+0 < -g <= capture depth, the slave gets f = k (-g) n (n the outward master normal), the master nodes
+get -f times their shape functions at the projection. Coulomb friction is regularized by the slip
+velocity: f_t = -mu f_n v_t / sqrt(|v_t|^2 + v_reg^2). The penalty energy k g^2 / 2 and the friction
+power are returned for the energy balance.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True)
+def contact_search(x, slaves, s_pair, segs, g_pair, g_rad, margin, head, nxt, cand, ncand, cell_h):
+    """Fill ``cand``/``ncand`` (candidate segments per slave) from current positions ``x``."""
+    dim = x.shape[1]
+    ns = slaves.shape[0]
+    nseg, nsn = segs.shape
+    K = cand.shape[1]
+    for i in range(ns):
+        ncand[i] = 0
+    if ns == 0 or nseg == 0:
+        return
+    lo = np.empty(3)
+    hi = np.empty(3)
+    mlo = np.empty(3)
+    mhi = np.empty(3)
+    cen = np.zeros((nseg, 3))
+    for d in range(3):
+        lo[d] = 1e300; hi[d] = -1e300; mlo[d] = 1e300; mhi[d] = -1e300
+    for i in range(ns):
+        for d in range(dim):
+            c = x[slaves[i], d]
+            lo[d] = min(lo[d], c); hi[d] = max(hi[d], c)
+    for s in range(nseg):
+        for d in range(dim):
+            c = 0.0
+            for a in range(nsn):
+                c += x[segs[s, a], d]
+            c /= nsn
+            cen[s, d] = c
+            mlo[d] = min(mlo[d], c); mhi[d] = max(mhi[d], c)
+    h = cell_h
+    for d in range(dim):
+        lo[d] = max(lo[d], mlo[d]) - 2 * h
+        hi[d] = min(hi[d], mhi[d]) + 2 * h
+        if hi[d] < lo[d]:
+            return  # bounding boxes do not overlap: no candidate anywhere
+    maxcells = head.shape[0]
+    while True:
+        nc = 1
+        for d in range(dim):
+            nc *= int((hi[d] - lo[d]) / h) + 1
+        if nc <= maxcells:
+            break
+        h *= 1.5
+    nx = int((hi[0] - lo[0]) / h) + 1
+    ny = int((hi[1] - lo[1]) / h) + 1
+    nz = int((hi[2] - lo[2]) / h) + 1 if dim == 3 else 1
+    for c in range(nx * ny * nz):
+        head[c] = -1
+    for s in range(nseg):
+        ix = int((cen[s, 0] - lo[0]) / h)
+        iy = int((cen[s, 1] - lo[1]) / h)
+        iz = int((cen[s, 2] - lo[2]) / h) if dim == 3 else 0
+        if ix < 0 or iy < 0 or iz < 0 or ix >= nx or iy >= ny or iz >= nz:
+            nxt[s] = -2
+            continue
+        c = (iz * ny + iy) * nx + ix
+        nxt[s] = head[c]
+        head[c] = s
+    dist = np.empty(K)
+    for i in range(ns):
+        n = slaves[i]
+        px = x[n, 0]; py = x[n, 1]
+        pz = x[n, 2] if dim == 3 else 0.0
+        ix = int(math.floor((px - lo[0]) / h))
+        iy = int(math.floor((py - lo[1]) / h))
+        iz = int(math.floor((pz - lo[2]) / h)) if dim == 3 else 0
+        if ix < -1 or iy < -1 or iz < -1 or ix > nx or iy > ny or iz > nz:
+            continue
+        zr = 1 if dim == 3 else 0
+        for kz in range(iz - zr, iz + zr + 1):
+            if kz < 0 or kz >= nz:
+                continue
+            for ky in range(iy - 1, iy + 2):
+                if ky < 0 or ky >= ny:
+                    continue
+                for kx in range(ix - 1, ix + 2):
+                    if kx < 0 or kx >= nx:
+                        continue
+                    s = head[(kz * ny + ky) * nx + kx]
+                    while s >= 0:
+                        if g_pair[s] == s_pair[i]:
+                            own = False
+                            for a in range(nsn):
+                                if segs[s, a] == n:
+                                    own = True
+                            if not own:
+                                dx = px - cen[s, 0]; dy = py - cen[s, 1]
+                                dz = pz - cen[s, 2] if dim == 3 else 0.0
+                                r = math.sqrt(dx * dx + dy * dy + dz * dz)
+                                if r <= g_rad[s] + margin:
+                                    m = ncand[i]
+                                    if m < K:
+                                        cand[i, m] = s; dist[m] = r; ncand[i] = m + 1
+                                    else:
+                                        worst = 0
+                                        for q in range(1, K):
+                                            if dist[q] > dist[worst]:
+                                                worst = q
+                                        if r < dist[worst]:
+                                            cand[i, worst] = s; dist[worst] = r
+                        s = nxt[s]
+
+
+@njit(cache=True, fastmath=True)
+def contact_forces_2d(x, v, slaves, s_pair, segs, g_k, cand, ncand, p_mu, p_vreg, p_depth, f, gap):
+    """Add 2D node-to-edge penalty/friction forces to ``f``; return (penalty energy, friction power).
+
+    ``gap`` (ns,) receives the gap of each slave (0 when not in contact, negative = penetration).
+    """
+    epot = 0.0
+    pfric = 0.0
+    for i in range(slaves.shape[0]):
+        gap[i] = 0.0
+        if ncand[i] == 0:
+            continue
+        n = slaves[i]
+        p = s_pair[i]
+        depth = p_depth[p]
+        best = -1
+        bg = 0.0
+        bxi = 0.0
+        for m in range(ncand[i]):
+            s = cand[i, m]
+            a = segs[s, 0]; b = segs[s, 1]
+            tx = x[b, 0] - x[a, 0]; ty = x[b, 1] - x[a, 1]
+            L2 = tx * tx + ty * ty
+            rx = x[n, 0] - x[a, 0]; ry = x[n, 1] - x[a, 1]
+            xi = (rx * tx + ry * ty) / L2
+            if xi < -1e-6 or xi > 1.0 + 1e-6:
+                continue
+            g = (rx * ty - ry * tx) / math.sqrt(L2)
+            if g < 0.0 and g > -depth and (best < 0 or g > bg):
+                best = s; bg = g; bxi = min(max(xi, 0.0), 1.0)
+        if best < 0:
+            continue
+        a = segs[best, 0]; b = segs[best, 1]
+        tx = x[b, 0] - x[a, 0]; ty = x[b, 1] - x[a, 1]
+        L = math.sqrt(tx * tx + ty * ty)
+        nx = ty / L; ny = -tx / L
+        k = g_k[best]
+        fn = -k * bg
+        gap[i] = bg
+        epot += 0.5 * k * bg * bg
+        fx = fn * nx; fy = fn * ny
+        mu = p_mu[p]
+        if mu > 0.0:
+            w0 = 1.0 - bxi
+            vx = v[n, 0] - w0 * v[a, 0] - bxi * v[b, 0]
+            vy = v[n, 1] - w0 * v[a, 1] - bxi * v[b, 1]
+            vn = vx * nx + vy * ny
+            vtx = vx - vn * nx; vty = vy - vn * ny
+            sc = mu * fn / math.sqrt(vtx * vtx + vty * vty + p_vreg[p] * p_vreg[p])
+            fx -= sc * vtx; fy -= sc * vty
+            pfric += sc * (vtx * vtx + vty * vty)
+        f[n, 0] += fx; f[n, 1] += fy
+        f[a, 0] -= (1.0 - bxi) * fx; f[a, 1] -= (1.0 - bxi) * fy
+        f[b, 0] -= bxi * fx; f[b, 1] -= bxi * fy
+    return epot, pfric
+
+
+@njit(cache=True, fastmath=True)
+def contact_forces_3d(x, v, slaves, s_pair, segs, g_k, cand, ncand, p_mu, p_vreg, p_depth, f, gap):
+    """Add 3D node-to-bilinear-facet penalty/friction forces to ``f``; see :func:`contact_forces_2d`."""
+    epot = 0.0
+    pfric = 0.0
+    sx = np.array([-1.0, 1.0, 1.0, -1.0])
+    sy = np.array([-1.0, -1.0, 1.0, 1.0])
+    N = np.empty(4)
+    bN = np.empty(4)
+    for i in range(slaves.shape[0]):
+        gap[i] = 0.0
+        if ncand[i] == 0:
+            continue
+        n = slaves[i]
+        p = s_pair[i]
+        depth = p_depth[p]
+        best = -1
+        bg = 0.0
+        bn0 = 0.0; bn1 = 0.0; bn2 = 0.0
+        for m in range(ncand[i]):
+            s = cand[i, m]
+            xi = 0.0
+            eta = 0.0
+            g = 0.0
+            n0 = 0.0; n1 = 0.0; n2 = 0.0
+            for it in range(6):
+                p0 = 0.0; p1 = 0.0; p2 = 0.0
+                a0 = 0.0; a1 = 0.0; a2 = 0.0
+                c0 = 0.0; c1 = 0.0; c2 = 0.0
+                for q in range(4):
+                    nd = segs[s, q]
+                    w = 0.25 * (1 + sx[q] * xi) * (1 + sy[q] * eta)
+                    wx = 0.25 * sx[q] * (1 + sy[q] * eta)
+                    wy = 0.25 * sy[q] * (1 + sx[q] * xi)
+                    p0 += w * x[nd, 0]; p1 += w * x[nd, 1]; p2 += w * x[nd, 2]
+                    a0 += wx * x[nd, 0]; a1 += wx * x[nd, 1]; a2 += wx * x[nd, 2]
+                    c0 += wy * x[nd, 0]; c1 += wy * x[nd, 1]; c2 += wy * x[nd, 2]
+                r0 = x[n, 0] - p0; r1 = x[n, 1] - p1; r2 = x[n, 2] - p2
+                g11 = a0 * a0 + a1 * a1 + a2 * a2
+                g22 = c0 * c0 + c1 * c1 + c2 * c2
+                g12 = a0 * c0 + a1 * c1 + a2 * c2
+                b1 = r0 * a0 + r1 * a1 + r2 * a2
+                b2 = r0 * c0 + r1 * c1 + r2 * c2
+                det = g11 * g22 - g12 * g12
+                dxi = (g22 * b1 - g12 * b2) / det
+                deta = (g11 * b2 - g12 * b1) / det
+                xi += dxi
+                eta += deta
+                n0 = a1 * c2 - a2 * c1; n1 = a2 * c0 - a0 * c2; n2 = a0 * c1 - a1 * c0
+                nl = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+                n0 /= nl; n1 /= nl; n2 /= nl
+                g = r0 * n0 + r1 * n1 + r2 * n2
+                if abs(dxi) + abs(deta) < 1e-10:
+                    break
+            if abs(xi) > 1.0 + 1e-6 or abs(eta) > 1.0 + 1e-6:
+                continue
+            if g < 0.0 and g > -depth and (best < 0 or g > bg):
+                best = s; bg = g
+                bn0 = n0; bn1 = n1; bn2 = n2
+                xi = min(max(xi, -1.0), 1.0); eta = min(max(eta, -1.0), 1.0)
+                for q in range(4):
+                    bN[q] = 0.25 * (1 + sx[q] * xi) * (1 + sy[q] * eta)
+        if best < 0:
+            continue
+        for q in range(4):
+            N[q] = bN[q]
+        k = g_k[best]
+        fn = -k * bg
+        gap[i] = bg
+        epot += 0.5 * k * bg * bg
+        fx = fn * bn0; fy = fn * bn1; fz = fn * bn2
+        mu = p_mu[p]
+        if mu > 0.0:
+            vx = v[n, 0]; vy = v[n, 1]; vz = v[n, 2]
+            for q in range(4):
+                nd = segs[best, q]
+                vx -= N[q] * v[nd, 0]; vy -= N[q] * v[nd, 1]; vz -= N[q] * v[nd, 2]
+            vn = vx * bn0 + vy * bn1 + vz * bn2
+            vtx = vx - vn * bn0; vty = vy - vn * bn1; vtz = vz - vn * bn2
+            vt2 = vtx * vtx + vty * vty + vtz * vtz
+            sc = mu * fn / math.sqrt(vt2 + p_vreg[p] * p_vreg[p])
+            fx -= sc * vtx; fy -= sc * vty; fz -= sc * vtz
+            pfric += sc * vt2
+        f[n, 0] += fx; f[n, 1] += fy; f[n, 2] += fz
+        for q in range(4):
+            nd = segs[best, q]
+            f[nd, 0] -= N[q] * fx; f[nd, 1] -= N[q] * fy; f[nd, 2] -= N[q] * fz
+    return epot, pfric

@@ -1,0 +1,303 @@
+"""Assemble the flat arrays of an :class:`ExplicitModel` and run the compiled loop."""
+from __future__ import annotations
+
+import logging
+import math
+import time
+
+import numpy as np
+
+from gearrom.errors import ConfigError, ModelError
+from gearrom.fe.explicit.geometry import (color_elements, element_geometry, hourglass_coefficients,
+                                          stable_time_step)
+from gearrom.fe.explicit.loop import NE_OUT, ramp, run_loop
+from gearrom.fe.explicit.model import ExplicitModel
+from gearrom.fe.explicit.result import ExplicitResult
+
+log = logging.getLogger(__name__)
+
+__all__ = ["prepare", "solve", "stable_dt"]
+
+
+def _element_of_segments(conn: np.ndarray, segs: np.ndarray) -> np.ndarray:
+    """Index of the element owning each segment (all segment nodes in one element)."""
+    owner = {}
+    for e, row in enumerate(conn):
+        for n in row:
+            owner.setdefault(int(n), []).append(e)
+    out = np.empty(len(segs), np.int64)
+    for s, seg in enumerate(segs):
+        cands = set(owner.get(int(seg[0]), []))
+        for n in seg[1:]:
+            cands &= set(owner.get(int(n), []))
+        if not cands:
+            raise ConfigError(f"master segment {s} {seg.tolist()} is not a face of any element")
+        out[s] = min(cands)
+    return out
+
+
+def prepare(model: ExplicitModel, safety: float = 0.9, max_candidates: int = 8) -> dict:
+    """Precompute everything the loop needs (geometry, masses, colours, BC and contact arrays)."""
+    if not 0 < safety <= 1:
+        raise ConfigError(f"safety must be in (0, 1], got {safety}")
+    X = model.nodes
+    n, dim = X.shape
+    mat = model.material
+    lam, mu = mat.lame
+    conn0 = model.elements
+    B, V0, gamma, me = element_geometry(X, conn0, model.thickness)
+    khg, chg = hourglass_coefficients(B, V0, lam, mu, mat.rho, model.hourglass_stiffness,
+                                      model.hourglass_viscosity)
+    mass = np.zeros(n)
+    np.add.at(mass, conn0, mat.rho * me)
+    if np.any(mass <= 0):
+        raise ModelError(f"node {int(np.argmin(mass))} belongs to no element (zero mass)")
+    dte = stable_time_step(B, V0, gamma, me, lam, mu, mat.rho, khg)
+    omega2 = (2.0 / dte.min()) ** 2
+    color = color_elements(conn0, n)
+    order = np.argsort(color, kind="stable")
+    cptr = np.searchsorted(color[order], np.arange(color.max() + 2)).astype(np.int64)
+    d = dict(conn=np.ascontiguousarray(conn0[order]), B=B[order], V0=V0[order], gamma=gamma[order],
+             khg=khg[order], chg=chg[order], cptr=cptr, lam=lam, mu=mu, mass=mass, dim=dim, n=n)
+    # fixed DOFs
+    fixmask = np.zeros((n, dim), np.uint8)
+    for name, comps in model.fixed.items():
+        for c in comps:
+            fixmask[model.node_sets[name], c] = 1
+    d["fixmask"] = fixmask
+    # rigid references
+    kind = -np.ones(n, np.int64)
+    nr = len(model.references)
+    r_nodes, r_ptr, r_off = [], [0], []
+    R = {k: np.zeros(nr) for k in ("M", "J", "speed", "ramp", "torque", "tramp", "k", "c", "kb", "cb")}
+    r_mode = np.zeros(nr, np.int64)
+    r_fixtr = np.zeros(nr, np.int64)
+    r_center = np.zeros((nr, dim))
+    for r, ref in enumerate(model.references):
+        ids = np.unique(model.node_sets[ref.nodes])
+        if ids.size < 2:
+            raise ConfigError(f"RigidReference {ref.nodes!r}: node set needs >= 2 nodes")
+        if np.any(kind[ids] >= 0):
+            raise ConfigError(f"RigidReference {ref.nodes!r}: nodes already tied to another reference")
+        kind[ids] = r
+        m = mass[ids]
+        c = (m[:, None] * X[ids]).sum(0) / m.sum()
+        off = X[ids] - c
+        r_center[r] = c
+        r_nodes.append(ids)
+        r_off.append(off[:, :2])
+        r_ptr.append(r_ptr[-1] + ids.size)
+        R["M"][r] = m.sum() + ref.mass
+        R["J"][r] = (m * (off[:, 0] ** 2 + off[:, 1] ** 2)).sum() + ref.inertia
+        R["speed"][r] = ref.speed if ref.speed is not None else 0.0
+        R["ramp"][r], R["torque"][r], R["tramp"][r] = ref.ramp_time, ref.torque, ref.torque_ramp_time
+        R["k"][r], R["c"][r], R["kb"][r], R["cb"][r] = ref.spring_k, ref.spring_c, ref.bearing_k, ref.bearing_c
+        if ref.speed is None:
+            r_mode[r] = 0
+        else:
+            r_mode[r] = 2 if (ref.spring_k > 0 or ref.spring_c > 0) else 1
+        r_fixtr[r] = 1 if ref.fix_translation else 0
+        if ref.bearing_k > 0:
+            omega2 = max(omega2, ref.bearing_k / R["M"][r] * 4)
+        if ref.spring_k > 0:
+            omega2 = max(omega2, ref.spring_k / R["J"][r] * 4)
+    d.update(kind=kind, r_nodes=np.concatenate(r_nodes) if nr else np.zeros(0, np.int64),
+             r_ptr=np.array(r_ptr, np.int64), r_off=np.concatenate(r_off) if nr else np.zeros((0, 2)),
+             r_mode=r_mode, r_fixtr=r_fixtr, r_center=r_center, **{"r_" + k: v for k, v in R.items()})
+    # loads
+    nl = len(model.loads)
+    npts = max([len(ld.times) for ld in model.loads], default=1)
+    ld_t = np.zeros((nl, npts))
+    ld_val = np.zeros((nl, npts))
+    ld_npts = np.zeros(nl, np.int64)
+    ld_nodes, ld_ptr = [], [0]
+    for l, ld in enumerate(model.loads):
+        ld_t[l, :len(ld.times)] = ld.times
+        ld_val[l, :len(ld.times)] = ld.factors
+        ld_npts[l] = len(ld.times)
+        ids = model.node_sets[ld.nodes]
+        ld_nodes.append(ids)
+        ld_ptr.append(ld_ptr[-1] + ids.size)
+    d.update(ld_nodes=np.concatenate(ld_nodes) if nl else np.zeros(0, np.int64),
+             ld_ptr=np.array(ld_ptr, np.int64),
+             ld_force=np.array([ld.force for ld in model.loads], float).reshape(nl, dim),
+             ld_t=ld_t, ld_val=ld_val, ld_npts=ld_npts)
+    # contact
+    nsn = 2 if dim == 2 else 4
+    slaves, s_pair, segs, g_pair, g_k, g_rad = [], [], [], [], [], []
+    p_mu, p_vreg, p_depth = [], [], []
+    for p, cp in enumerate(model.contacts):
+        sl = np.unique(model.node_sets[cp.slave])
+        sg = model.surfaces[cp.master]
+        if sg.shape[0] == 0 or sl.size == 0:
+            raise ConfigError(f"ContactPair {cp.slave!r}/{cp.master!r}: empty slave set or master surface")
+        own = _element_of_segments(conn0, sg)
+        xs = X[sg]
+        if dim == 2:
+            area = np.linalg.norm(xs[:, 1] - xs[:, 0], axis=1) * model.thickness
+        else:
+            area = 0.5 * np.linalg.norm(np.cross(xs[:, 2] - xs[:, 0], xs[:, 3] - xs[:, 1]), axis=1)
+        k = cp.penalty_scale * (lam + 2 * mu) * area ** 2 / V0[own]
+        cen = xs.mean(axis=1)
+        rad = np.linalg.norm(xs - cen[:, None, :], axis=2).max(axis=1)
+        hel = (V0[own] / (model.thickness if dim == 2 else 1.0)) ** (1.0 / dim)
+        depth = cp.capture_depth if cp.capture_depth is not None else 0.5 * hel.min()
+        slaves.append(sl); s_pair.append(np.full(sl.size, p))
+        segs.append(sg); g_pair.append(np.full(len(sg), p)); g_k.append(k); g_rad.append(rad)
+        p_mu.append(cp.mu); p_vreg.append(cp.v_reg); p_depth.append(depth)
+        msl = mass[sl].min()
+        mma = mass[np.unique(sg)].min()
+        omega2 = max(omega2, (2.0 / dte.min()) ** 2 + k.max() * (1 / msl + 1 / mma))
+    nc = len(model.contacts)
+    d.update(slaves=np.concatenate(slaves) if nc else np.zeros(0, np.int64),
+             s_pair=np.concatenate(s_pair).astype(np.int64) if nc else np.zeros(0, np.int64),
+             segs=np.concatenate(segs) if nc else np.zeros((0, nsn), np.int64),
+             g_pair=np.concatenate(g_pair).astype(np.int64) if nc else np.zeros(0, np.int64),
+             g_k=np.concatenate(g_k) if nc else np.zeros(0), g_rad=np.concatenate(g_rad) if nc else np.zeros(0),
+             p_mu=np.array(p_mu, float), p_vreg=np.array(p_vreg, float),
+             p_depth=np.array(p_depth if nc else [0.0], float))
+    margin = max(p_depth) if nc else 0.0
+    d["margin"] = margin
+    d["cell_h"] = (d["g_rad"].max() + 2 * margin) if nc else 1.0
+    ns = d["slaves"].size
+    d["head"] = np.zeros(4 * (ns + len(d["segs"])) + 1024, np.int64)
+    d["nxt"] = np.zeros(max(len(d["segs"]), 1), np.int64)
+    d["cand"] = np.zeros((ns, max_candidates), np.int64)
+    d["ncand"] = np.zeros(ns, np.int64)
+    d["gap"] = np.zeros(ns)
+    d["c_nodes"] = np.unique(np.concatenate([d["slaves"], d["segs"].ravel()])) if nc else np.zeros(0, np.int64)
+    d["dt_stable"] = 2.0 / math.sqrt(omega2)
+    d["dt"] = safety * d["dt_stable"]
+    return d
+
+
+def stable_dt(model: ExplicitModel, safety: float = 0.9) -> float:
+    """Stable time step of ``model`` times ``safety``, s."""
+    return prepare(model, safety)["dt"]
+
+
+def _initial_state(model: ExplicitModel, d: dict):
+    n, dim = model.nodes.shape
+    u = np.zeros((n, dim)) if model.initial_displacement is None else model.initial_displacement.copy()
+    v = np.zeros((n, dim)) if model.initial_velocity is None else model.initial_velocity.copy()
+    u[d["fixmask"] == 1] = 0.0 if model.initial_displacement is None else u[d["fixmask"] == 1]
+    v[d["fixmask"] == 1] = 0.0
+    nr = len(model.references)
+    r_th = np.array([ref.theta0 for ref in model.references], float)
+    r_om = np.array([ref.speed * ramp(0.0, ref.ramp_time) if d["r_mode"][r] == 1 else ref.omega0
+                     for r, ref in enumerate(model.references)], float)
+    for r in range(nr):
+        ids = d["r_nodes"][d["r_ptr"][r]:d["r_ptr"][r + 1]]
+        off = d["r_off"][d["r_ptr"][r]:d["r_ptr"][r + 1]]
+        c, s = math.cos(r_th[r]), math.sin(r_th[r])
+        rx, ry = c * off[:, 0] - s * off[:, 1], s * off[:, 0] + c * off[:, 1]
+        u[ids, 0], u[ids, 1] = rx - off[:, 0], ry - off[:, 1]
+        v[ids, 0], v[ids, 1] = -r_om[r] * ry, r_om[r] * rx
+        if dim == 3:
+            u[ids, 2] = 0.0
+            v[ids, 2] = 0.0
+    r_prev = np.zeros((nr, 7))
+    r_prev[:, 3] = r_th
+    r_prev[:, 4] = r_th
+    r_prev[:, 6] = r_th
+    return u, v, r_th, r_om, r_prev
+
+
+def solve(model: ExplicitModel, t_end: float, sample_period: float | None = None, *,
+          dt: float | None = None, safety: float = 0.9, probes=(), chunks: int = 20,
+          prepared: dict | None = None) -> ExplicitResult:
+    """Run the explicit dynamics of ``model`` from t = 0 to ``t_end``.
+
+    Parameters
+    ----------
+    model : ExplicitModel
+    t_end : float
+        End time, s.
+    sample_period : float, optional
+        Output period, s (default: t_end / 200). The time step is lowered slightly so that the
+        sample period is an integer number of steps.
+    dt : float, optional
+        Time step, s; must not exceed the stable step (default: ``safety`` * stable step).
+    probes : sequence of int
+        Node ids whose displacement/velocity histories are recorded.
+    chunks : int
+        The run is split into this many compiled calls (progress logged between them).
+    prepared : dict, optional
+        Output of :func:`prepare` for this model, to skip the set-up.
+    """
+    if not t_end > 0:
+        raise ConfigError(f"t_end must be > 0 s, got {t_end}")
+    d = prepared if prepared is not None else prepare(model, safety)
+    dt_max = d["dt"]
+    if dt is not None:
+        if not 0 < dt <= d["dt_stable"]:
+            raise ConfigError(f"dt = {dt:.3e} s exceeds the stable step {d['dt_stable']:.3e} s")
+        dt_max = dt
+    if sample_period is None:
+        sample_period = t_end / 200
+    if not sample_period > 0:
+        raise ConfigError(f"sample_period must be > 0 s, got {sample_period}")
+    out_every = max(1, math.ceil(sample_period / dt_max * (1 - 1e-12)))
+    step_dt = sample_period / out_every
+    n_out_total = math.ceil(t_end / sample_period * (1 - 1e-12))
+    n, dim = model.nodes.shape
+    nr = len(model.references)
+    probes = np.asarray(probes, np.int64).reshape(-1)
+    if probes.size and (probes.min() < 0 or probes.max() >= n):
+        raise ConfigError(f"probes must be node ids in 0..{n - 1}")
+    u, v, r_th, r_om, r_prev = _initial_state(model, d)
+    a = np.zeros_like(u)
+    f = np.zeros_like(u)
+    r_pos = np.zeros((nr, dim)); r_vel = np.zeros((nr, dim)); r_acc = np.zeros((nr, dim)); r_al = np.zeros(nr)
+    ld_fprev = np.zeros((d["ld_nodes"].size, dim))
+    ld_uprev = u[d["ld_nodes"]].copy() if d["ld_nodes"].size else np.zeros((0, dim))
+    c_usearch = np.zeros((d["c_nodes"].size, dim))
+    acc = np.zeros(8); acc[5] = -1.0
+    nt = n_out_total + 1
+    out_t = np.zeros(nt); out_E = np.zeros((nt, NE_OUT)); out_th = np.zeros((nt, nr)); out_om = np.zeros((nt, nr))
+    out_tq = np.zeros((nt, nr)); out_pos = np.zeros((nt, nr, dim))
+    out_pu = np.zeros((nt, probes.size, dim)); out_pv = np.zeros((nt, probes.size, dim))
+    chunks = max(1, min(chunks, n_out_total))
+    bounds = np.linspace(0, n_out_total, chunks + 1).round().astype(int)
+    row = 0
+    t0 = 0.0
+    wall0 = time.perf_counter()
+    for c in range(chunks):
+        n_out = bounds[c + 1] - bounds[c]
+        if n_out == 0:
+            continue
+        nsteps = n_out * out_every
+        # chunk 0 writes rows [0, n_out]; a later chunk starts by rewriting the previous last row
+        sl = slice(row - 1 if c else 0, None)
+        written = run_loop(nsteps, step_dt, out_every, t0, model.nodes, u, v, a, f, d["mass"], d["kind"],
+                           d["fixmask"], model.mass_damping, d["conn"], d["B"], d["V0"], d["gamma"],
+                           d["khg"], d["chg"], d["lam"], d["mu"], d["cptr"],
+                           d["ld_nodes"], d["ld_ptr"], d["ld_force"], d["ld_t"], d["ld_val"], d["ld_npts"],
+                           ld_fprev, ld_uprev,
+                           d["r_nodes"], d["r_ptr"], d["r_off"], d["r_M"], d["r_J"], d["r_mode"],
+                           d["r_speed"], d["r_ramp"], d["r_torque"], d["r_tramp"], d["r_k"], d["r_c"],
+                           d["r_fixtr"], d["r_kb"], d["r_cb"], r_pos, r_vel, r_acc, r_th, r_om, r_al, r_prev,
+                           d["slaves"], d["s_pair"], d["segs"], d["g_pair"], d["g_k"], d["g_rad"], d["p_mu"],
+                           d["p_vreg"], d["p_depth"], d["margin"], d["cell_h"], d["head"], d["nxt"],
+                           d["cand"], d["ncand"], d["gap"], d["c_nodes"], c_usearch,
+                           acc, out_t[sl], out_E[sl], out_th[sl], out_om[sl], out_tq[sl], out_pos[sl],
+                           probes, out_pu[sl], out_pv[sl])
+        row = (row - 1 if c else 0) + written
+        t0 += nsteps * step_dt
+        if not np.all(np.isfinite(u)):
+            raise ModelError(f"explicit run diverged before t = {t0:.4e} s (non-finite displacement)")
+        log.info("explicit: t = %.4e / %.4e s, wall %.1f s", t0, t_end, time.perf_counter() - wall0)
+    wall = time.perf_counter() - wall0
+    nsteps_total = n_out_total * out_every
+    meta = dict(dim=dim, n_nodes=n, n_elements=int(model.elements.shape[0]), dt_s=step_dt,
+                dt_stable_s=d["dt_stable"], n_steps=nsteps_total, t_end_s=nsteps_total * step_dt,
+                sample_period_s=sample_period, wall_time_s=wall,
+                element_updates_per_s=nsteps_total * model.elements.shape[0] / wall,
+                n_colors=int(d["cptr"].size - 1), hourglass_stiffness=model.hourglass_stiffness,
+                hourglass_viscosity=model.hourglass_viscosity, mass_damping=model.mass_damping,
+                material=dict(E_Pa=model.material.E, nu=model.material.nu, rho_kg_m3=model.material.rho),
+                thickness_m=model.thickness, references=[r.nodes for r in model.references],
+                n_contact_slaves=int(d["slaves"].size), n_contact_segments=int(len(d["segs"])))
+    return ExplicitResult(t=out_t[:row], energies=out_E[:row], theta=out_th[:row], omega=out_om[:row],
+                          torque_body=out_tq[:row], ref_disp=out_pos[:row], probe_ids=probes,
+                          probe_u=out_pu[:row], probe_v=out_pv[:row], u_final=u, v_final=v, meta=meta)

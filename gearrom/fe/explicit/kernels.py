@@ -1,0 +1,157 @@
+"""Element kernels: one-point total-Lagrangian St Venant-Kirchhoff Q4 / Hex8 with hourglass control.
+
+For element e with reference mean gradients B_a (1/m) and volume V0:
+
+    F = I + sum_a u_a (x) B_a,   E = (F^T F - I) / 2,   S = lambda tr(E) I + 2 mu E,   P = F S,
+    f_a^int = V0 P B_a,          W = V0 (lambda tr(E)^2 / 2 + mu E:E).
+
+Plane strain: F is 2x2 with F_33 = 1, so E_33 = 0 and S is the 2x2 block. The Flanagan-Belytschko
+hourglass generalized displacements q_k = sum_a gamma_ak u_a and velocities qd_k give forces
+f_a = gamma_ak (k_hg q_k + c_hg qd_k). Because gamma_k annihilates every linear field, q_k is
+unchanged by rigid translation and rotates with the body under rigid rotation, so the stiffness
+term is objective for large rotations and its energy k_hg |q|^2 / 2 is rotation invariant.
+
+The kernels ADD the internal+hourglass force with a minus sign into ``f`` (the residual), and return
+(internal energy, hourglass energy, hourglass viscous power).
+"""
+from __future__ import annotations
+
+from numba import njit
+
+
+@njit(cache=True, fastmath=True, inline="always")
+def q4_element(e, conn, u, v, B, V0, gamma, khg, chg, lam, mu, f):
+    """Residual contribution of Q4 element ``e``; returns (W_int, W_hg, P_hgvisc) in J, J, W."""
+    n0 = conn[e, 0]
+    n1 = conn[e, 1]
+    n2 = conn[e, 2]
+    n3 = conn[e, 3]
+    ux0 = u[n0, 0]; uy0 = u[n0, 1]
+    ux1 = u[n1, 0]; uy1 = u[n1, 1]
+    ux2 = u[n2, 0]; uy2 = u[n2, 1]
+    ux3 = u[n3, 0]; uy3 = u[n3, 1]
+    b0x = B[e, 0, 0]; b0y = B[e, 0, 1]
+    b1x = B[e, 1, 0]; b1y = B[e, 1, 1]
+    b2x = B[e, 2, 0]; b2y = B[e, 2, 1]
+    b3x = B[e, 3, 0]; b3y = B[e, 3, 1]
+    F11 = 1.0 + ux0 * b0x + ux1 * b1x + ux2 * b2x + ux3 * b3x
+    F12 = ux0 * b0y + ux1 * b1y + ux2 * b2y + ux3 * b3y
+    F21 = uy0 * b0x + uy1 * b1x + uy2 * b2x + uy3 * b3x
+    F22 = 1.0 + uy0 * b0y + uy1 * b1y + uy2 * b2y + uy3 * b3y
+    E11 = 0.5 * (F11 * F11 + F21 * F21 - 1.0)
+    E22 = 0.5 * (F12 * F12 + F22 * F22 - 1.0)
+    E12 = 0.5 * (F11 * F12 + F21 * F22)
+    tr = E11 + E22
+    S11 = lam * tr + 2.0 * mu * E11
+    S22 = lam * tr + 2.0 * mu * E22
+    S12 = 2.0 * mu * E12
+    vol = V0[e]
+    P11 = vol * (F11 * S11 + F12 * S12)
+    P12 = vol * (F11 * S12 + F12 * S22)
+    P21 = vol * (F21 * S11 + F22 * S12)
+    P22 = vol * (F21 * S12 + F22 * S22)
+    wint = vol * (0.5 * lam * tr * tr + mu * (E11 * E11 + E22 * E22 + 2.0 * E12 * E12))
+    g0 = gamma[e, 0, 0]; g1 = gamma[e, 1, 0]; g2 = gamma[e, 2, 0]; g3 = gamma[e, 3, 0]
+    qx = g0 * ux0 + g1 * ux1 + g2 * ux2 + g3 * ux3
+    qy = g0 * uy0 + g1 * uy1 + g2 * uy2 + g3 * uy3
+    k = khg[e]
+    c = chg[e]
+    hx = k * qx
+    hy = k * qy
+    whg = 0.5 * k * (qx * qx + qy * qy)
+    phg = 0.0
+    if c > 0.0:
+        qdx = g0 * v[n0, 0] + g1 * v[n1, 0] + g2 * v[n2, 0] + g3 * v[n3, 0]
+        qdy = g0 * v[n0, 1] + g1 * v[n1, 1] + g2 * v[n2, 1] + g3 * v[n3, 1]
+        hx += c * qdx
+        hy += c * qdy
+        phg = c * (qdx * qdx + qdy * qdy)
+    f[n0, 0] -= P11 * b0x + P12 * b0y + g0 * hx
+    f[n0, 1] -= P21 * b0x + P22 * b0y + g0 * hy
+    f[n1, 0] -= P11 * b1x + P12 * b1y + g1 * hx
+    f[n1, 1] -= P21 * b1x + P22 * b1y + g1 * hy
+    f[n2, 0] -= P11 * b2x + P12 * b2y + g2 * hx
+    f[n2, 1] -= P21 * b2x + P22 * b2y + g2 * hy
+    f[n3, 0] -= P11 * b3x + P12 * b3y + g3 * hx
+    f[n3, 1] -= P21 * b3x + P22 * b3y + g3 * hy
+    return wint, whg, phg
+
+
+@njit(cache=True, fastmath=True, inline="always")
+def hex8_element(e, conn, u, v, B, V0, gamma, khg, chg, lam, mu, f):
+    """Residual contribution of Hex8 element ``e``; returns (W_int, W_hg, P_hgvisc)."""
+    F00 = 1.0; F01 = 0.0; F02 = 0.0
+    F10 = 0.0; F11 = 1.0; F12 = 0.0
+    F20 = 0.0; F21 = 0.0; F22 = 1.0
+    q00 = 0.0; q01 = 0.0; q02 = 0.0; q03 = 0.0
+    q10 = 0.0; q11 = 0.0; q12 = 0.0; q13 = 0.0
+    q20 = 0.0; q21 = 0.0; q22 = 0.0; q23 = 0.0
+    for a in range(8):
+        n = conn[e, a]
+        ux = u[n, 0]; uy = u[n, 1]; uz = u[n, 2]
+        bx = B[e, a, 0]; by = B[e, a, 1]; bz = B[e, a, 2]
+        F00 += ux * bx; F01 += ux * by; F02 += ux * bz
+        F10 += uy * bx; F11 += uy * by; F12 += uy * bz
+        F20 += uz * bx; F21 += uz * by; F22 += uz * bz
+        g0 = gamma[e, a, 0]; g1 = gamma[e, a, 1]; g2 = gamma[e, a, 2]; g3 = gamma[e, a, 3]
+        q00 += g0 * ux; q01 += g1 * ux; q02 += g2 * ux; q03 += g3 * ux
+        q10 += g0 * uy; q11 += g1 * uy; q12 += g2 * uy; q13 += g3 * uy
+        q20 += g0 * uz; q21 += g1 * uz; q22 += g2 * uz; q23 += g3 * uz
+    E00 = 0.5 * (F00 * F00 + F10 * F10 + F20 * F20 - 1.0)
+    E11 = 0.5 * (F01 * F01 + F11 * F11 + F21 * F21 - 1.0)
+    E22 = 0.5 * (F02 * F02 + F12 * F12 + F22 * F22 - 1.0)
+    E01 = 0.5 * (F00 * F01 + F10 * F11 + F20 * F21)
+    E02 = 0.5 * (F00 * F02 + F10 * F12 + F20 * F22)
+    E12 = 0.5 * (F01 * F02 + F11 * F12 + F21 * F22)
+    tr = E00 + E11 + E22
+    m2 = 2.0 * mu
+    S00 = lam * tr + m2 * E00
+    S11 = lam * tr + m2 * E11
+    S22 = lam * tr + m2 * E22
+    S01 = m2 * E01
+    S02 = m2 * E02
+    S12 = m2 * E12
+    vol = V0[e]
+    P00 = vol * (F00 * S00 + F01 * S01 + F02 * S02)
+    P01 = vol * (F00 * S01 + F01 * S11 + F02 * S12)
+    P02 = vol * (F00 * S02 + F01 * S12 + F02 * S22)
+    P10 = vol * (F10 * S00 + F11 * S01 + F12 * S02)
+    P11 = vol * (F10 * S01 + F11 * S11 + F12 * S12)
+    P12 = vol * (F10 * S02 + F11 * S12 + F12 * S22)
+    P20 = vol * (F20 * S00 + F21 * S01 + F22 * S02)
+    P21 = vol * (F20 * S01 + F21 * S11 + F22 * S12)
+    P22 = vol * (F20 * S02 + F21 * S12 + F22 * S22)
+    wint = vol * (0.5 * lam * tr * tr
+                  + mu * (E00 * E00 + E11 * E11 + E22 * E22 + 2.0 * (E01 * E01 + E02 * E02 + E12 * E12)))
+    k = khg[e]
+    c = chg[e]
+    whg = 0.5 * k * (q00 * q00 + q01 * q01 + q02 * q02 + q03 * q03 + q10 * q10 + q11 * q11
+                     + q12 * q12 + q13 * q13 + q20 * q20 + q21 * q21 + q22 * q22 + q23 * q23)
+    q00 *= k; q01 *= k; q02 *= k; q03 *= k
+    q10 *= k; q11 *= k; q12 *= k; q13 *= k
+    q20 *= k; q21 *= k; q22 *= k; q23 *= k
+    phg = 0.0
+    if c > 0.0:
+        d00 = 0.0; d01 = 0.0; d02 = 0.0; d03 = 0.0
+        d10 = 0.0; d11 = 0.0; d12 = 0.0; d13 = 0.0
+        d20 = 0.0; d21 = 0.0; d22 = 0.0; d23 = 0.0
+        for a in range(8):
+            n = conn[e, a]
+            vx = v[n, 0]; vy = v[n, 1]; vz = v[n, 2]
+            g0 = gamma[e, a, 0]; g1 = gamma[e, a, 1]; g2 = gamma[e, a, 2]; g3 = gamma[e, a, 3]
+            d00 += g0 * vx; d01 += g1 * vx; d02 += g2 * vx; d03 += g3 * vx
+            d10 += g0 * vy; d11 += g1 * vy; d12 += g2 * vy; d13 += g3 * vy
+            d20 += g0 * vz; d21 += g1 * vz; d22 += g2 * vz; d23 += g3 * vz
+        phg = c * (d00 * d00 + d01 * d01 + d02 * d02 + d03 * d03 + d10 * d10 + d11 * d11
+                   + d12 * d12 + d13 * d13 + d20 * d20 + d21 * d21 + d22 * d22 + d23 * d23)
+        q00 += c * d00; q01 += c * d01; q02 += c * d02; q03 += c * d03
+        q10 += c * d10; q11 += c * d11; q12 += c * d12; q13 += c * d13
+        q20 += c * d20; q21 += c * d21; q22 += c * d22; q23 += c * d23
+    for a in range(8):
+        n = conn[e, a]
+        bx = B[e, a, 0]; by = B[e, a, 1]; bz = B[e, a, 2]
+        g0 = gamma[e, a, 0]; g1 = gamma[e, a, 1]; g2 = gamma[e, a, 2]; g3 = gamma[e, a, 3]
+        f[n, 0] -= P00 * bx + P01 * by + P02 * bz + g0 * q00 + g1 * q01 + g2 * q02 + g3 * q03
+        f[n, 1] -= P10 * bx + P11 * by + P12 * bz + g0 * q10 + g1 * q11 + g2 * q12 + g3 * q13
+        f[n, 2] -= P20 * bx + P21 * by + P22 * bz + g0 * q20 + g1 * q21 + g2 * q22 + g3 * q23
+    return wint, whg, phg

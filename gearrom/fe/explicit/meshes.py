@@ -1,0 +1,104 @@
+"""Small structured meshes (rectangle, box, annulus, disk) for tests, benchmarks and examples."""
+from __future__ import annotations
+
+import numpy as np
+
+from gearrom.errors import ConfigError
+
+
+def rectangle_q4(lx: float, ly: float, nx: int, ny: int, x0: float = 0.0, y0: float = 0.0):
+    """Structured Q4 mesh of [x0, x0+lx] x [y0, y0+ly]; returns (nodes (n,2), elements (ne,4)).
+
+    Node (i, j) has index j * (nx + 1) + i.
+    """
+    if nx < 1 or ny < 1:
+        raise ConfigError(f"rectangle_q4 needs nx, ny >= 1, got {nx}, {ny}")
+    xs = np.linspace(x0, x0 + lx, nx + 1)
+    ys = np.linspace(y0, y0 + ly, ny + 1)
+    X, Y = np.meshgrid(xs, ys)
+    nodes = np.column_stack([X.ravel(), Y.ravel()])
+    i, j = np.meshgrid(np.arange(nx), np.arange(ny))
+    n0 = (j * (nx + 1) + i).ravel()
+    elements = np.column_stack([n0, n0 + 1, n0 + nx + 2, n0 + nx + 1])
+    return nodes, elements
+
+
+def box_hex8(lx: float, ly: float, lz: float, nx: int, ny: int, nz: int):
+    """Structured Hex8 mesh of [0,lx] x [0,ly] x [0,lz]; node (i,j,k) = (k (ny+1) + j) (nx+1) + i."""
+    if min(nx, ny, nz) < 1:
+        raise ConfigError(f"box_hex8 needs nx, ny, nz >= 1, got {nx}, {ny}, {nz}")
+    xs, ys, zs = (np.linspace(0, lx, nx + 1), np.linspace(0, ly, ny + 1), np.linspace(0, lz, nz + 1))
+    Z, Y, X = np.meshgrid(zs, ys, xs, indexing="ij")
+    nodes = np.column_stack([X.ravel(), Y.ravel(), Z.ravel()])
+    k, j, i = np.meshgrid(np.arange(nz), np.arange(ny), np.arange(nx), indexing="ij")
+    sx, sxy = nx + 1, (nx + 1) * (ny + 1)
+    n0 = (k * sxy + j * sx + i).ravel()
+    bottom = [n0, n0 + 1, n0 + sx + 1, n0 + sx]
+    elements = np.column_stack(bottom + [b + sxy for b in bottom])
+    return nodes, elements
+
+
+def annulus_q4(r_in: float, r_out: float, nr: int, nt: int, center=(0.0, 0.0)):
+    """Q4 mesh of an annulus, ``nr`` radial by ``nt`` circumferential elements.
+
+    Returns (nodes, elements, inner_ids, outer_ids). Node (i radial, j circumferential) = i nt + j.
+    """
+    if not 0 < r_in < r_out or nr < 1 or nt < 3:
+        raise ConfigError("annulus_q4 needs 0 < r_in < r_out, nr >= 1, nt >= 3")
+    r = np.linspace(r_in, r_out, nr + 1)
+    t = np.linspace(0, 2 * np.pi, nt, endpoint=False)
+    R, T = np.meshgrid(r, t, indexing="ij")
+    nodes = np.column_stack([center[0] + (R * np.cos(T)).ravel(), center[1] + (R * np.sin(T)).ravel()])
+    i, j = np.meshgrid(np.arange(nr), np.arange(nt), indexing="ij")
+    i, j = i.ravel(), j.ravel()
+    jn = (j + 1) % nt
+    elements = np.column_stack([i * nt + j, (i + 1) * nt + j, (i + 1) * nt + jn, i * nt + jn])
+    return nodes, elements, np.arange(nt), nr * nt + np.arange(nt)
+
+
+def disk_q4(radius: float, n_core: int, n_ring: int, center=(0.0, 0.0), grading: float = 1.0):
+    """Q4 mesh of a full disk: a mapped square core (n_core x n_core) and an O-grid ring.
+
+    ``n_ring`` radial element layers between the core boundary and the rim; ``grading`` < 1
+    shrinks the layers towards the rim (ratio of successive layer thicknesses). Returns (nodes,
+    elements, rim_ids) with rim_ids ordered counter-clockwise.
+    """
+    if n_core < 1 or n_ring < 1 or radius <= 0:
+        raise ConfigError("disk_q4 needs radius > 0, n_core >= 1, n_ring >= 1")
+    a = 0.35 * radius                                   # half-size of the core square
+    s = np.linspace(-1, 1, n_core + 1)
+    S, T = np.meshgrid(s, s)
+    # mapped core: blend square with circle to avoid flat angles at the corners
+    Xc, Yc = S * a, T * a
+    core = np.column_stack([Xc.ravel(), Yc.ravel()])
+    ncn = n_core + 1
+    i, j = np.meshgrid(np.arange(n_core), np.arange(n_core))
+    n0 = (j * ncn + i).ravel()
+    elems = [np.column_stack([n0, n0 + 1, n0 + ncn + 1, n0 + ncn])]
+    # core boundary nodes counter-clockwise starting at (-a, -a)
+    ids = []
+    ids += [0 * ncn + k for k in range(n_core)]                 # bottom, left->right
+    ids += [k * ncn + n_core for k in range(n_core)]            # right, bottom->top
+    ids += [n_core * ncn + (n_core - k) for k in range(n_core)]  # top, right->left
+    ids += [(n_core - k) * ncn + 0 for k in range(n_core)]      # left, top->bottom
+    ids = np.array(ids)
+    nb = ids.size
+    pb = core[ids]
+    ang = np.arctan2(pb[:, 1], pb[:, 0])
+    rim = np.column_stack([np.cos(ang), np.sin(ang)]) * radius
+    w = grading ** np.arange(n_ring)
+    frac = np.concatenate([[0.0], np.cumsum(w) / w.sum()])
+    nodes = [core]
+    layer_ids = [ids]
+    base = core.shape[0]
+    for k in range(1, n_ring + 1):
+        pts = pb + frac[k] * (rim - pb)
+        nodes.append(pts)
+        layer_ids.append(base + np.arange(nb))
+        base += nb
+    for k in range(n_ring):
+        p, q = layer_ids[k], layer_ids[k + 1]
+        pn, qn = np.roll(p, -1), np.roll(q, -1)
+        elems.append(np.column_stack([p, q, qn, pn]))
+    nodes = np.vstack(nodes) + np.asarray(center, float)
+    return nodes, np.vstack(elems), layer_ids[-1]
