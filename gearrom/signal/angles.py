@@ -1,0 +1,187 @@
+"""Read a measurement into both shaft angles on one uniform time grid (:func:`load_angles`).
+
+Kind "edges": each channel goes through an :class:`~gearrom.signal.edges.EdgeStream` (bounded
+memory, checks and repairs); the two angle series are then cut to their common grid span.
+Kind "angles": the rows are checked (finite, increasing time, no duplicated time, no reversal),
+gaps are listed as repairs and bridged by linear interpolation onto the grid.
+Finally the measured input speed is compared with ``rpm_in`` of the metadata.
+"""
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from gearrom.errors import MeasurementError
+from gearrom.signal.edges import EdgeStream, ReadSettings, Repair
+from gearrom.signal.measurement import CHANNELS, MeasurementMeta, read_meta
+from gearrom.signal.readers import AngleChunk, EdgeChunk, first_bad, fmt_t, iter_chunks, row_label
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class AngleData:
+    """Both shaft angles on one uniform time grid.
+
+    Attributes
+    ----------
+    t_s : ndarray
+        Grid times, s (``k / fs_hz``).
+    theta_in_rad, theta_out_rad : ndarray
+        Shaft angles, rad, zero at each channel's first edge (or first row).
+    fs_hz : float
+        Grid rate, Hz.
+    meta : MeasurementMeta
+    repairs : tuple of Repair
+    rpm_in_measured : float
+        Mean input speed over the record, rpm.
+    n_edges : dict
+        Rows read per channel.
+    """
+
+    t_s: np.ndarray
+    theta_in_rad: np.ndarray
+    theta_out_rad: np.ndarray
+    fs_hz: float
+    meta: MeasurementMeta
+    repairs: tuple[Repair, ...] = ()
+    rpm_in_measured: float = float("nan")
+    n_edges: dict = field(default_factory=dict)
+
+
+def auto_fs(meta: MeasurementMeta, settings: ReadSettings) -> float:
+    """Grid rate: the nominal input edge rate divided down to at most ``settings.fs_max_hz``."""
+    if settings.fs_hz is not None:
+        return float(settings.fs_hz)
+    rate = meta.rpm_in / 60.0 * meta.encoders["input"].edges_per_rev
+    return rate / max(1, math.ceil(rate / settings.fs_max_hz - 1e-9))
+
+
+def load_angles(source: str | Path | MeasurementMeta, settings: ReadSettings | None = None) -> AngleData:
+    """Read a ``gearrom.measurement/1`` measurement into both shaft angles on one time grid.
+
+    Parameters
+    ----------
+    source : str, Path or MeasurementMeta
+        The JSON metadata file (or its parsed metadata).
+    settings : ReadSettings, optional
+
+    Returns
+    -------
+    AngleData
+
+    Raises
+    ------
+    MeasurementError
+        Any format, validation or consistency problem; the message names file, channel, row, time.
+    """
+    settings = settings or ReadSettings()
+    meta = source if isinstance(source, MeasurementMeta) else read_meta(source)
+    if meta.kind == "edges":
+        data = _load_edges(meta, settings)
+    else:
+        data = _load_angle_rows(meta, settings)
+    _check_rpm(data, settings)
+    return data
+
+
+def _load_edges(meta: MeasurementMeta, settings: ReadSettings) -> AngleData:
+    fs = auto_fs(meta, settings)
+    file, label = str(meta.data_path), row_label(meta)
+    streams = {ch: EdgeStream(ch, meta.encoders[ch].edges_per_rev, fs, file, label, settings) for ch in CHANNELS}
+    for chunk in iter_chunks(meta, settings.chunk_rows):
+        assert isinstance(chunk, EdgeChunk)
+        streams[chunk.channel].feed(chunk)
+    res = {ch: s.finish() for ch, s in streams.items()}
+    (k_in, th_in), (k_out, th_out) = res["input"], res["output"]
+    k0 = max(k_in, k_out)
+    k1 = min(k_in + th_in.size, k_out + th_out.size)
+    if k1 - k0 < 16:
+        raise MeasurementError(f"{file}: channels 'input' ({_span(streams['input'])}) and 'output' "
+                               f"({_span(streams['output'])}) overlap by fewer than 16 grid samples")
+    th_in = th_in[k0 - k_in:k1 - k_in]
+    th_out = th_out[k0 - k_out:k1 - k_out]
+    s_in = streams["input"]
+    rpm = s_in.last_count * s_in.dtheta / (s_in.last_t - s_in.first_t) * 60.0 / (2 * math.pi)
+    repairs = tuple(r for s in streams.values() for r in s.repairs)
+    for r in repairs:
+        log.info("repair: %s", r.message())
+    return AngleData(t_s=np.arange(k0, k1) / fs, theta_in_rad=th_in, theta_out_rad=th_out, fs_hz=fs, meta=meta,
+                     repairs=repairs, rpm_in_measured=rpm, n_edges={ch: s.n_edges for ch, s in streams.items()})
+
+
+def _span(s: EdgeStream) -> str:
+    if s.first_t is None:
+        return "no edges"
+    return f"t={fmt_t(s.first_t)}..{fmt_t(s.last_t)}"
+
+
+def _load_angle_rows(meta: MeasurementMeta, settings: ReadSettings) -> AngleData:
+    file, label = str(meta.data_path), row_label(meta)
+    parts: list[AngleChunk] = [c for c in iter_chunks(meta, settings.chunk_rows)]  # type: ignore[misc]
+    if not parts or sum(p.t.size for p in parts) < 16:
+        raise MeasurementError(f"{file}: fewer than 16 data rows")
+    t = np.concatenate([p.t for p in parts])
+    th = {"input": np.concatenate([p.theta_in for p in parts]),
+          "output": np.concatenate([p.theta_out for p in parts])}
+    row = np.concatenate([p.row for p in parts])
+    del parts
+    for name, arr in (("t_s", t), ("theta_in_rad", th["input"]), ("theta_out_rad", th["output"])):
+        i = first_bad(arr)
+        if i is not None:
+            raise MeasurementError(f"{file}: {label} {row[i]}, column {name!r}: value is not a finite number "
+                                   f"({arr[i]}) at t={fmt_t(t[i])}")
+    dt = np.diff(t)
+    bad = np.flatnonzero(dt <= 0)
+    if bad.size:
+        j = bad[0] + 1
+        what = "duplicated time stamp" if dt[j - 1] == 0 else "time stamp decreases"
+        raise MeasurementError(f"{file}: {label} {row[j]}, column 't_s', t={fmt_t(t[j])}: {what} "
+                               f"(previous row {label} {row[j - 1]}, t={fmt_t(t[j - 1])})")
+    for ch, col in (("input", "theta_in_rad"), ("output", "theta_out_rad")):
+        rev = np.flatnonzero(np.diff(th[ch]) < 0)
+        if rev.size:
+            j = rev[0] + 1
+            raise MeasurementError(f"{file}: {label} {row[j]}, channel {ch!r} (column {col!r}), t={fmt_t(t[j])}: "
+                                   "direction reversal (angle decreases); angles must increase in the "
+                                   "direction of rotation")
+        th[ch] = th[ch] - th[ch][0]
+    med = float(np.median(dt))
+    fs = float(settings.fs_hz) if settings.fs_hz is not None else 1.0 / med
+    repairs = []
+    gaps = np.flatnonzero(dt > settings.gap_ratio * med)
+    for g in gaps:
+        j = g + 1
+        rep = Repair("gap", "input+output", f"{file}: {label} {row[j]}", float(t[j]), int(round(dt[g] / med)) - 1,
+                     f"{dt[g]:.6g} s without samples ({dt[g] / med:.1f} x the median interval) bridged by "
+                     "linear interpolation")
+        if settings.strict or dt[g] / med - 1 > settings.max_fill_edges:
+            raise MeasurementError(rep.message() + ": gap too long" if not settings.strict else
+                                   rep.message() + " (strict mode: no repairs allowed)")
+        repairs.append(rep)
+    if len(repairs) > settings.max_repairs:
+        raise MeasurementError(f"{file}: {len(repairs)} gaps, more than max_repairs={settings.max_repairs}")
+    uniform = settings.fs_hz is None and not gaps.size and np.max(np.abs(dt - med)) <= 1e-6 * med
+    if uniform:
+        tg, th_in, th_out = t, th["input"], th["output"]
+        fs = 1.0 / float(np.mean(dt))
+    else:
+        tg = np.arange(math.ceil(t[0] * fs), math.floor(t[-1] * fs) + 1) / fs
+        th_in, th_out = np.interp(tg, t, th["input"]), np.interp(tg, t, th["output"])
+    rpm = (th["input"][-1]) / (t[-1] - t[0]) * 60.0 / (2 * math.pi)
+    return AngleData(t_s=tg, theta_in_rad=th_in, theta_out_rad=th_out, fs_hz=fs, meta=meta, repairs=tuple(repairs),
+                     rpm_in_measured=rpm, n_edges={"rows": int(t.size)})
+
+
+def _check_rpm(data: AngleData, settings: ReadSettings) -> None:
+    meta = data.meta
+    rel = abs(data.rpm_in_measured - meta.rpm_in) / meta.rpm_in
+    if not rel <= settings.rpm_tolerance:
+        raise MeasurementError(
+            f"{meta.path}: key 'rpm_in' = {meta.rpm_in:g} disagrees with the data ({meta.data_path}, channel "
+            f"'input', t={fmt_t(float(data.t_s[0]))}..{fmt_t(float(data.t_s[-1]))}: mean "
+            f"{data.rpm_in_measured:.6g} rpm) by {100 * rel:.2f} % (tolerance {100 * settings.rpm_tolerance:g} %)")

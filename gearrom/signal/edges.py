@@ -1,0 +1,295 @@
+"""Encoder edges to shaft angle on a uniform time grid, in bounded memory, with repairs.
+
+Edge ``n`` of a channel sits at angle ``n * 2*pi/edges_per_rev`` (plus an unknown offset, taken
+as zero at the first edge). :class:`EdgeStream` takes the edges of one channel chunk by chunk,
+checks them, repairs what can be repaired and emits the angle, linearly interpolated between
+edges, at the grid times ``k / fs_hz``.
+
+Checks, against a local reference interval (the median edge interval of blocks of
+``ReadSettings.block`` edges, i.e. the local speed):
+
+- non-finite or decreasing time stamps, direction reversals (``direction`` column = -1): error;
+- an interval shorter than ``double_ratio`` times the reference: a spurious double edge (or a
+  duplicated time stamp). The edge whose removal leaves the interval closest to the reference is
+  removed (repair ``double_edge`` / ``duplicate_timestamp``);
+- an interval close to ``m`` times the reference (m >= 2, within ``integer_tol``): ``m - 1``
+  dropped edges. The angle advances by ``m`` edges over that interval, i.e. the missing edges are
+  filled by linear interpolation in time (repair ``dropped_edges``). Longer or non-integer gaps
+  are errors.
+
+Every repair is listed (:class:`Repair`); with ``strict=True`` every repair is an error instead.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from gearrom.errors import ConfigError, MeasurementError
+from gearrom.signal.readers import EdgeChunk, first_bad, fmt_t
+
+
+@dataclass(frozen=True)
+class ReadSettings:
+    """Settings of the reader and the edge checks.
+
+    Parameters
+    ----------
+    fs_hz : float or None
+        Rate of the common time grid in Hz. None: the slower channel's nominal edge rate, divided
+        by the smallest integer that brings it to at most ``fs_max_hz``.
+    fs_max_hz : float
+        Upper limit of the automatic grid rate, Hz.
+    chunk_rows : int
+        Rows read per chunk (memory is proportional to it).
+    block : int
+        Edges per block for the local reference interval (median).
+    double_ratio, gap_ratio : float
+        Interval/reference below which an edge is spurious, above which edges were dropped.
+    integer_tol : float
+        Largest distance of the interval/reference ratio from an integer m for a gap to count as
+        m - 1 dropped edges.
+    max_fill_edges : int
+        Most consecutive dropped edges that are filled; longer gaps are errors.
+    max_repairs : int
+        More repairs than this per channel is an error (the data are not trustworthy).
+    rpm_tolerance : float
+        Allowed relative difference between ``rpm_in`` of the metadata and the measured speed.
+    strict : bool
+        Treat every repair as an error.
+    """
+
+    fs_hz: float | None = None
+    fs_max_hz: float = 200e3
+    chunk_rows: int = 2_000_000
+    block: int = 256
+    double_ratio: float = 0.5
+    gap_ratio: float = 1.5
+    integer_tol: float = 0.3
+    max_fill_edges: int = 64
+    max_repairs: int = 1000
+    rpm_tolerance: float = 0.05
+    strict: bool = False
+
+    def __post_init__(self):
+        if self.fs_hz is not None and not self.fs_hz > 0:
+            raise ConfigError(f"Parameter fs_hz={self.fs_hz!r} must be > 0 or None")
+        if not (0 < self.double_ratio < 1 < self.gap_ratio):
+            raise ConfigError(f"need 0 < double_ratio={self.double_ratio} < 1 < gap_ratio={self.gap_ratio}")
+        if self.chunk_rows < 16 or self.block < 8:
+            raise ConfigError(f"Parameters chunk_rows={self.chunk_rows} (>= 16) / block={self.block} (>= 8)")
+
+
+@dataclass(frozen=True)
+class Repair:
+    """One repair made while reading: kind, channel, location (file and row), time, count, detail."""
+
+    kind: str
+    channel: str
+    where: str
+    t_s: float
+    count: int
+    detail: str
+
+    def message(self) -> str:
+        """One line naming file, channel, row and time."""
+        return f"{self.where}, channel {self.channel!r}, t={fmt_t(self.t_s)}: {self.kind}: {self.detail}"
+
+    def to_dict(self) -> dict:
+        """JSON-friendly dict."""
+        return asdict(self)
+
+
+class EdgeStream:
+    """Turn the edges of one channel, fed chunk by chunk, into angle samples on a uniform grid.
+
+    Parameters
+    ----------
+    channel : str
+        ``"input"`` or ``"output"``.
+    edges_per_rev : int
+        Counted edges per revolution.
+    fs_hz : float
+        Grid rate; grid times are ``k / fs_hz`` for integers k.
+    file : str
+        File name used in messages.
+    label : str
+        Row label used in messages (``"line"`` or ``"sample"``).
+    settings : ReadSettings
+    """
+
+    _TAIL = 3  # edges held back per chunk so that each decision can look one edge ahead
+
+    def __init__(self, channel: str, edges_per_rev: int, fs_hz: float, file: str, label: str,
+                 settings: ReadSettings):
+        self.channel, self.fs, self.file, self.label, self.s = channel, fs_hz, file, label, settings
+        self.dtheta = 2.0 * math.pi / edges_per_rev
+        self.repairs: list[Repair] = []
+        self.n_edges = 0
+        self.first_t: float | None = None
+        self.last_t: float | None = None  # last accepted edge
+        self.last_row = -1
+        self.last_count = 0
+        self.next_k: int | None = None
+        self.k0: int | None = None
+        self._tail_t = np.empty(0)
+        self._tail_row = np.empty(0, np.int64)
+        self._out: list[np.ndarray] = []
+
+    # -- messages ---------------------------------------------------------------------------
+    def _where(self, row: int) -> str:
+        return f"{self.file}: {self.label} {row}"
+
+    def _fail(self, row: int, t: float, why: str) -> MeasurementError:
+        return MeasurementError(f"{self._where(row)}, channel {self.channel!r}, t={fmt_t(t)}: {why}")
+
+    def _repair(self, kind: str, row: int, t: float, count: int, detail: str) -> None:
+        rep = Repair(kind, self.channel, self._where(row), float(t), int(count), detail)
+        if self.s.strict:
+            raise MeasurementError(rep.message() + " (strict mode: no repairs allowed)")
+        self.repairs.append(rep)
+        if len(self.repairs) > self.s.max_repairs:
+            raise self._fail(row, t, f"more than max_repairs={self.s.max_repairs} repairs; the record is "
+                                     "not trustworthy")
+
+    # -- feeding ------------------------------------------------------------------------------
+    def feed(self, chunk: EdgeChunk) -> None:
+        """Check and process one chunk of edges of this channel."""
+        t, row = chunk.t, chunk.row
+        i = first_bad(t)
+        if i is not None:
+            raise self._fail(int(row[i]), float("nan"), f"time stamp is not a finite number ({t[i]})")
+        if chunk.direction is not None:
+            d = chunk.direction
+            bad = np.flatnonzero(~np.isin(d, (1.0, -1.0)))
+            if bad.size:
+                j = bad[0]
+                raise self._fail(int(row[j]), float(t[j]), f"column 'direction' must be 1 or -1, got {d[j]}")
+            rev = np.flatnonzero(d < 0)
+            if rev.size:
+                j = rev[0]
+                raise self._fail(int(row[j]), float(t[j]), "direction reversal (direction = -1); TE needs "
+                                 "rotation in one direction")
+        self.n_edges += t.size
+        self._tail_t = np.concatenate([self._tail_t, t])
+        self._tail_row = np.concatenate([self._tail_row, row])
+        if self._tail_t.size > self._TAIL + 1:
+            self._process(final=False)
+
+    def finish(self) -> tuple[int, np.ndarray]:
+        """Process what is left. Returns ``(k0, theta)``: grid index of the first sample, angles (rad)."""
+        if self._tail_t.size:
+            self._process(final=True)
+        if self.first_t is None or self.n_edges < 2:
+            raise MeasurementError(f"{self.file}: channel {self.channel!r} has {self.n_edges} edges; "
+                                   "at least 2 are needed (missing channel?)")
+        theta = np.concatenate(self._out) if self._out else np.empty(0)
+        self._out = []
+        return (self.k0 if self.k0 is not None else 0), theta
+
+    def _process(self, final: bool) -> None:
+        t_new, r_new = self._tail_t, self._tail_row
+        if self.last_t is None:
+            e_t, e_row = t_new, r_new
+            self.first_t = float(t_new[0])
+            self.last_count = 0
+            self.next_k = math.ceil(self.first_t * self.fs - 1e-9)
+            self.k0 = self.next_k
+        else:
+            e_t = np.concatenate([[self.last_t], t_new])
+            e_row = np.concatenate([[self.last_row], r_new])
+        n = e_t.size
+        if n < 2:
+            return
+        d = np.diff(e_t)
+        neg = np.flatnonzero(d < 0)
+        if neg.size:
+            j = neg[0]
+            raise self._fail(int(e_row[j + 1]), float(e_t[j + 1]),
+                             f"time stamp decreases (previous edge at {self.label} {e_row[j]}, t={fmt_t(e_t[j])})")
+        ref = self._reference(d)
+        r = d / ref
+        # intervals [0, n_dec) are decided now; the last _TAIL edges wait for the next chunk
+        n_dec = n - 1 if final else n - 1 - self._TAIL
+        if n_dec <= 0:
+            return
+        keep = np.ones(n, bool)
+        small = np.flatnonzero(r[:n_dec] < self.s.double_ratio)
+        if small.size:
+            r = r.copy()
+            self._remove_doubles(small, r, keep, d, e_t, e_row)
+        n_acc = n_dec + 1  # edges e[0..n_dec] are accepted or removed now; e[0] was accepted earlier
+        acc = np.flatnonzero(keep[:n_acc])
+        ta = e_t[acc]
+        dk = np.diff(ta)
+        rk = dk / ref[acc[1:] - 1]
+        inc = np.ones(dk.size, np.int64)
+        gaps = np.flatnonzero(rk > self.s.gap_ratio)
+        for g in gaps:
+            m = int(round(rk[g]))
+            row, tt = int(e_row[acc[g + 1]]), float(ta[g + 1])
+            if abs(rk[g] - m) > self.s.integer_tol or m - 1 > self.s.max_fill_edges:
+                raise self._fail(row, tt, f"gap of {dk[g]:.6g} s = {rk[g]:.2f} edge intervals at the local speed "
+                                 f"since the previous edge; not a whole number of dropped edges up to "
+                                 f"max_fill_edges={self.s.max_fill_edges}")
+            inc[g] = m
+            self._repair("dropped_edges", row, tt, m - 1, f"{m - 1} dropped edge(s) detected from the speed "
+                         f"(interval {rk[g]:.2f} x local mean) and filled by interpolation")
+        counts = self.last_count + np.concatenate([[0], np.cumsum(inc)])
+        self._emit(ta, counts)
+        self.last_t, self.last_row, self.last_count = float(ta[-1]), int(e_row[acc[-1]]), int(counts[-1])
+        rest = np.arange(n_acc, n)
+        rest = rest[keep[rest]]
+        self._tail_t, self._tail_row = e_t[rest], e_row[rest]
+
+    def _reference(self, d: np.ndarray) -> np.ndarray:
+        """Local reference interval for each interval: median over blocks of ``block`` intervals."""
+        b = self.s.block
+        nb = d.size // b
+        ref = np.empty_like(d)
+        if nb:
+            med = np.median(d[:nb * b].reshape(nb, b), axis=1)
+            ref[:nb * b] = np.repeat(med, b)
+        if d.size > nb * b:
+            rest = d[nb * b:]
+            ref[nb * b:] = np.median(rest) if rest.size >= 16 or not nb else med[-1]
+        if not (ref > 0).all():
+            j = int(np.argmin(ref > 0))
+            raise MeasurementError(f"{self.file}: channel {self.channel!r}: median edge interval is zero in "
+                                   f"block {j // b} of the current chunk (many duplicated time stamps)")
+        return ref
+
+    def _remove_doubles(self, small, r, keep, d, e_t, e_row) -> None:
+        n = e_t.size
+        for i in small:
+            if not r[i] < self.s.double_ratio:  # already merged by a previous removal
+                continue
+            left = i - 1
+            while left >= 0 and np.isnan(r[left]):
+                left -= 1
+            right = i + 1 if i + 1 < r.size else None
+            cost_right = abs(r[i] + r[right] - 1.0) if right is not None else math.inf
+            cost_left = abs(r[left] + r[i] - 1.0) if left >= 0 else math.inf
+            if right is None and left < 0:
+                drop = i + 1
+            elif cost_left < cost_right:  # drop edge i: merge intervals left and i
+                drop, r[left], r[i] = i, r[left] + r[i], np.nan
+            else:  # drop edge i + 1: merge intervals i and i + 1
+                drop = i + 1
+                if right is not None:
+                    r[right], r[i] = r[i] + r[right], np.nan
+            if drop == 0 or drop >= n:
+                drop = i + 1
+            keep[drop] = False
+            kind = "duplicate_timestamp" if d[i] == 0 else "double_edge"
+            self._repair(kind, int(e_row[drop]), float(e_t[drop]), 1,
+                         f"spurious edge removed (interval {d[i]:.3g} s, below {self.s.double_ratio} x local mean)")
+
+    def _emit(self, ta: np.ndarray, counts: np.ndarray) -> None:
+        k_end = math.floor(ta[-1] * self.fs + 1e-9)
+        if k_end < self.next_k:
+            return
+        k = np.arange(self.next_k, k_end + 1)
+        self._out.append(np.interp(k / self.fs, ta, counts.astype(np.float64)) * self.dtheta)
+        self.next_k = k_end + 1

@@ -1,0 +1,251 @@
+"""The TE result object: signal, spectra, averages, summary, plot, save/load."""
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+from dataclasses import dataclass
+from functools import cached_property
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+
+from gearrom.errors import MeasurementError
+from gearrom.signal.filters import FilterSettings
+from gearrom.signal.spectra import Peak, Spectrum, amplitude_spectrum, annotate_gmf, order_spectrum, synchronous_average
+from gearrom.signal.te import GearMeshInfo, TESettings
+
+UM = 1e-6
+
+
+@dataclass(frozen=True, eq=False)
+class TEResult:
+    """Transmission error of one run, on a uniform time grid.
+
+    Attributes
+    ----------
+    t_s : ndarray
+        Time, s.
+    te_m : ndarray
+        Processed TE (detrended, filtered), m, positive when the output lags.
+    theta_in_rad, theta_out_rad : ndarray
+        Shaft angles from the first edge, rad.
+    fs_hz : float
+        Sampling rate, Hz.
+    mesh : GearMeshInfo
+    settings : TESettings
+    rpm_in : float
+        Measured mean input speed, rpm.
+    rpm_in_nominal : float
+        ``rpm_in`` of the metadata.
+    repairs : tuple of dict
+        Repairs made while reading (kind, channel, where, t_s, count, detail).
+    source, description : str
+    torque_out_Nm : float or None
+    n_edges : dict
+    """
+
+    t_s: np.ndarray
+    te_m: np.ndarray
+    theta_in_rad: np.ndarray
+    theta_out_rad: np.ndarray
+    fs_hz: float
+    mesh: GearMeshInfo
+    settings: TESettings
+    rpm_in: float
+    rpm_in_nominal: float
+    repairs: tuple = ()
+    source: str = ""
+    description: str = ""
+    torque_out_Nm: float | None = None
+    n_edges: dict = dataclasses.field(default_factory=dict)
+
+    # -- derived quantities -------------------------------------------------------------------
+    @property
+    def gmf_hz(self) -> float:
+        """Gear mesh frequency z1 * n_in / 60 at the measured speed, Hz (seed eq. 4)."""
+        return self.mesh.z1 * self.rpm_in / 60.0
+
+    @property
+    def revs_in(self) -> float:
+        """Input revolutions in the record."""
+        return float(self.theta_in_rad[-1] - self.theta_in_rad[0]) / (2 * math.pi)
+
+    @property
+    def samples_per_rev(self) -> int:
+        """Angle-grid points per input revolution for order spectra and averages."""
+        if self.settings.samples_per_rev:
+            return int(self.settings.samples_per_rev)
+        per_rev = self.fs_hz / (self.rpm_in / 60.0)
+        return int(2 ** math.ceil(math.log2(max(256.0, per_rev))))
+
+    def order_spectrum(self, whole: Literal["auto", "hunting", "rev"] = "auto", window: str = "rect") -> Spectrum:
+        """Order spectrum of the TE (orders of the input shaft).
+
+        ``whole="hunting"`` transforms whole hunting-tooth periods (all mesh and shaft orders on bins),
+        ``"rev"`` whole input revolutions, ``"auto"`` the former when the record holds one period.
+        """
+        hunt = self.mesh.hunting_revs_in
+        if whole == "auto":
+            whole = "hunting" if self.revs_in + 1e-9 >= hunt else "rev"
+        if whole == "hunting":
+            n = int(math.floor(self.revs_in / hunt + 1e-9)) * hunt
+            if n < 1:
+                raise MeasurementError(f"{self.source}: record holds {self.revs_in:.2f} input revolutions, "
+                                       f"fewer than one hunting-tooth period ({hunt})")
+        else:
+            n = None
+        return order_spectrum(self.te_m, self.theta_in_rad, self.samples_per_rev, n_revs=n, window=window)
+
+    @cached_property
+    def _orders(self) -> Spectrum:
+        return self.order_spectrum()
+
+    def spectrum(self, window: str | None = None) -> Spectrum:
+        """Amplitude spectrum of the TE in Hz (window default: ``settings.window``)."""
+        return amplitude_spectrum(self.te_m, self.fs_hz, window or self.settings.window)
+
+    def tsa(self, period: Literal["input", "output", "hunting"] = "input",
+            samples_per_period: int | None = None) -> tuple[np.ndarray, np.ndarray, int]:
+        """Time-synchronous average of the TE per input revolution, output revolution or hunting period.
+
+        Returns
+        -------
+        angle_rad, te_m, n_periods
+            Angle within the period (of the input shaft for "input"/"hunting", of the output shaft
+            for "output"), averaged TE in m, number of periods averaged.
+        """
+        spr = self.samples_per_rev
+        if period == "input":
+            return synchronous_average(self.te_m, self.theta_in_rad, 2 * math.pi, samples_per_period or spr)
+        if period == "output":
+            return synchronous_average(self.te_m, self.theta_out_rad, 2 * math.pi, samples_per_period or spr)
+        if period == "hunting":
+            hunt = self.mesh.hunting_revs_in
+            return synchronous_average(self.te_m, self.theta_in_rad, 2 * math.pi * hunt,
+                                       samples_per_period or spr * hunt)
+        raise ValueError(f"period={period!r} must be 'input', 'output' or 'hunting'")
+
+    def gmf_lines(self) -> list[tuple[float, float]]:
+        """``(amplitude_m, phase_rad)`` of GMF harmonics 1..n_harmonics from the order spectrum."""
+        sp = self._orders
+        return [sp.at(h * self.mesh.z1)[:2] for h in range(1, self.settings.n_harmonics + 1)]
+
+    def peaks(self) -> list[Peak]:
+        """GMF harmonics and shaft-order sidebands, annotated in the order spectrum (orders of the input)."""
+        return annotate_gmf(self._orders, self.mesh.z1, 1.0, self.mesh.ratio,
+                            n_harmonics=self.settings.n_harmonics, n_sidebands=self.settings.n_sidebands)
+
+    @property
+    def te_rms_m(self) -> float:
+        """Rms of the processed TE, m."""
+        return float(np.sqrt(np.mean((self.te_m - self.te_m.mean()) ** 2)))
+
+    @property
+    def te_ptp_m(self) -> float:
+        """Peak-to-peak of the processed TE, m."""
+        return float(np.ptp(self.te_m))
+
+    def to_json_dict(self) -> dict:
+        """Summary for the CLI: speeds, TE rms/ptp, GMF, harmonic amplitudes (um), sidebands, repairs."""
+        lines = self.gmf_lines()
+        sp = self._orders
+        return {
+            "source": self.source,
+            "description": self.description,
+            "te_on": self.settings.te_on,
+            "gear": dataclasses.asdict(self.mesh),
+            "rpm_in": self.rpm_in,
+            "rpm_in_nominal": self.rpm_in_nominal,
+            "torque_out_Nm": self.torque_out_Nm,
+            "duration_s": float(self.t_s[-1] - self.t_s[0]),
+            "fs_hz": self.fs_hz,
+            "revs_in": self.revs_in,
+            "te_rms_um": self.te_rms_m / UM,
+            "te_ptp_um": self.te_ptp_m / UM,
+            "gmf_hz": self.gmf_hz,
+            "gmf_amplitude_um": [a / UM for a, _ in lines],
+            "gmf_phase_deg": [math.degrees(p) for _, p in lines],
+            "order_spectrum": {"revs": sp.n / self.samples_per_rev, "resolution_orders": sp.resolution,
+                               "window": sp.window},
+            "peaks": [{"label": p.label, "order": p.x, "freq_hz": p.x * self.rpm_in / 60.0,
+                       "amplitude_um": p.amplitude / UM} for p in self.peaks()],
+            "filters": dataclasses.asdict(self.settings.filters),
+            "n_edges": self.n_edges,
+            "repairs": list(self.repairs),
+        }
+
+    # -- plot -------------------------------------------------------------------------------------
+    def plot(self, fmax_hz: float | None = None):
+        """TE over two input revolutions, amplitude spectrum with GMF marks, TSA per input/output rev.
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        from matplotlib.figure import Figure
+
+        fig = Figure(figsize=(10, 9), layout="constrained")
+        ax1, ax2, ax3 = fig.subplots(3, 1)
+        n2 = np.searchsorted(self.theta_in_rad, self.theta_in_rad[0] + 4 * math.pi)
+        ax1.plot(self.t_s[:n2] - self.t_s[0], self.te_m[:n2] / UM, lw=0.8)
+        ax1.set(xlabel="time [s] (two input revolutions)", ylabel=f"TE ({self.settings.te_on}) [um]",
+                title=f"{Path(self.source).name}: {self.rpm_in:.0f} rpm, rms {self.te_rms_m / UM:.3g} um, "
+                      f"ptp {self.te_ptp_m / UM:.3g} um")
+        sp = self.spectrum()
+        fmax = fmax_hz or min(self.fs_hz / 2, 4.5 * self.gmf_hz)
+        m = sp.x <= fmax
+        ax2.plot(sp.x[m], sp.amplitude[m] / UM, lw=0.8)
+        for p in self.peaks():
+            if "x" in p.label and "+" not in p.label and "-" not in p.label:
+                f = p.x * self.rpm_in / 60.0
+                ax2.axvline(f, color="C3", lw=0.6, ls="--")
+                ax2.annotate(p.label, (f, p.amplitude / UM), fontsize=8, color="C3")
+        ax2.set(xlabel="frequency [Hz]", ylabel="amplitude [um]", title=f"amplitude spectrum ({sp.window} window, "
+                "coherent-gain corrected); GMF harmonics marked")
+        for kind, color in (("input", "C0"), ("output", "C1")):
+            try:
+                ang, avg, n = self.tsa(kind)
+            except MeasurementError:
+                continue
+            ax3.plot(np.degrees(ang), avg / UM, color=color, lw=0.8, label=f"per {kind} rev ({n} revs)")
+        ax3.set(xlabel="shaft angle [deg]", ylabel="TSA of TE [um]", title="time-synchronous averages")
+        ax3.legend(loc="upper right", fontsize=8)
+        return fig
+
+    # -- persistence --------------------------------------------------------------------------
+    def save(self, path: str | Path) -> Path:
+        """Save as NetCDF (xarray + h5netcdf): the arrays plus JSON metadata in the attributes."""
+        import xarray as xr
+
+        path = Path(path)
+        attrs = {"gearrom": "TEResult/1", "fs_hz": self.fs_hz, "mesh": json.dumps(dataclasses.asdict(self.mesh)),
+                 "settings": json.dumps({**dataclasses.asdict(self.settings)}),
+                 "rpm_in": self.rpm_in, "rpm_in_nominal": self.rpm_in_nominal, "repairs": json.dumps(list(self.repairs)),
+                 "source": self.source, "description": self.description,
+                 "torque_out_Nm": json.dumps(self.torque_out_Nm), "n_edges": json.dumps(self.n_edges)}
+        ds = xr.Dataset({"te_m": ("t_s", self.te_m), "theta_in_rad": ("t_s", self.theta_in_rad),
+                         "theta_out_rad": ("t_s", self.theta_out_rad)}, coords={"t_s": self.t_s}, attrs=attrs)
+        ds.to_netcdf(path, engine="h5netcdf")
+        return path
+
+    @classmethod
+    def load(cls, path: str | Path) -> TEResult:
+        """Load a result written by :meth:`save`."""
+        import xarray as xr
+
+        with xr.open_dataset(path, engine="h5netcdf") as ds:
+            ds.load()
+            a = ds.attrs
+            if a.get("gearrom") != "TEResult/1":
+                raise MeasurementError(f"{path}: not a gearrom TEResult file")
+            st = json.loads(a["settings"])
+            st["filters"] = FilterSettings(**st["filters"])
+            return cls(t_s=ds["t_s"].values, te_m=ds["te_m"].values, theta_in_rad=ds["theta_in_rad"].values,
+                       theta_out_rad=ds["theta_out_rad"].values, fs_hz=float(a["fs_hz"]),
+                       mesh=GearMeshInfo(**json.loads(a["mesh"])), settings=TESettings(**st),
+                       rpm_in=float(a["rpm_in"]), rpm_in_nominal=float(a["rpm_in_nominal"]),
+                       repairs=tuple(json.loads(a["repairs"])), source=str(a["source"]),
+                       description=str(a["description"]), torque_out_Nm=json.loads(a["torque_out_Nm"]),
+                       n_edges=json.loads(a["n_edges"]))

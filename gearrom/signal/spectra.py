@@ -1,0 +1,236 @@
+"""Spectra of TE: amplitude spectra in time and angle (orders), synchronous averages, GMF labels.
+
+Amplitude correction. A one-sided amplitude spectrum of a windowed record is
+``A_k = 2 |X_k| / sum(w)`` (``|X_0| / sum(w)`` at DC and at Nyquist), i.e. the DFT is divided by
+the window's coherent gain ``CG = sum(w)/N`` times N. A sine that falls on a bin then shows its
+true amplitude with any window; between bins the rectangular window loses up to 36 %, Hann up
+to 15 % and flat-top less than 0.1 % (scalloping). Phases refer to the first sample
+(cosine convention: ``x = A cos(2*pi*f*t + phase)``).
+
+Order spectra resample the TE onto a uniform grid of the input shaft angle (cubic spline), so
+speed fluctuations do not smear the mesh orders. Over a whole number of input revolutions every
+mesh order (``h * z1``) falls on a bin; over whole hunting-tooth periods (``z2/gcd(z1, z2)``
+input revolutions) the output-shaft orders (``m * z1/z2``) do too, and no window is needed.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from scipy import signal
+from scipy.interpolate import CubicSpline
+
+from gearrom.errors import MeasurementError
+
+
+@dataclass(frozen=True)
+class Spectrum:
+    """One-sided amplitude spectrum.
+
+    Attributes
+    ----------
+    x : ndarray
+        Frequencies in Hz (``unit == "Hz"``) or orders of the input shaft (``unit == "order"``).
+    amplitude : ndarray
+        Amplitude in the unit of the signal (m for TE).
+    phase_rad : ndarray
+        Phase, rad (cosine convention, relative to the first sample / angle zero).
+    unit : {"Hz", "order"}
+    window : str
+        Window name; the amplitude is corrected by the window's coherent gain.
+    n : int
+        Number of samples transformed.
+    """
+
+    x: np.ndarray
+    amplitude: np.ndarray
+    phase_rad: np.ndarray
+    unit: Literal["Hz", "order"]
+    window: str
+    n: int
+
+    @property
+    def resolution(self) -> float:
+        """Bin spacing (Hz or orders)."""
+        return float(self.x[1] - self.x[0])
+
+    def at(self, x0: float, search_bins: int = 0) -> tuple[float, float, float]:
+        """Amplitude, phase and position of the bin nearest ``x0`` (largest within +-``search_bins``)."""
+        k = int(round(x0 / self.resolution))
+        if not 0 <= k < self.x.size:
+            return float("nan"), float("nan"), float(x0)
+        lo, hi = max(0, k - search_bins), min(self.x.size, k + search_bins + 1)
+        j = lo + int(np.argmax(self.amplitude[lo:hi]))
+        return float(self.amplitude[j]), float(self.phase_rad[j]), float(self.x[j])
+
+
+def _one_sided(x: np.ndarray, window: str, spacing: float, unit: str) -> Spectrum:
+    n = x.size
+    if n < 2:
+        raise MeasurementError(f"spectrum needs at least 2 samples, got {n}")
+    w = np.ones(n) if window in ("rect", "boxcar", "rectangular") else signal.get_window(window, n)
+    X = np.fft.rfft(x * w)
+    amp = np.abs(X) / w.sum()
+    amp[1:] *= 2.0
+    if n % 2 == 0:
+        amp[-1] /= 2.0
+    f = np.fft.rfftfreq(n, d=spacing)
+    return Spectrum(x=f, amplitude=amp, phase_rad=np.angle(X), unit=unit, window=window, n=n)
+
+
+def amplitude_spectrum(x: np.ndarray, fs_hz: float, window: str = "hann") -> Spectrum:
+    """One-sided amplitude spectrum of a time signal.
+
+    Parameters
+    ----------
+    x : ndarray
+        Signal (e.g. TE in m) sampled at ``fs_hz``.
+    fs_hz : float
+        Sampling rate, Hz.
+    window : str
+        ``"rect"`` or any :func:`scipy.signal.get_window` name (``"hann"``, ``"flattop"``...).
+
+    Returns
+    -------
+    Spectrum
+        Frequencies in Hz, amplitudes corrected by the coherent gain of the window.
+    """
+    return _one_sided(np.asarray(x, float) - np.mean(x), window, 1.0 / fs_hz, "Hz")
+
+
+def resample_angle(x: np.ndarray, theta_rad: np.ndarray, samples_per_rev: int,
+                   n_revs: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Resample ``x(theta)`` onto a uniform angle grid starting at ``theta[0]``.
+
+    Parameters
+    ----------
+    x : ndarray
+        Signal samples.
+    theta_rad : ndarray
+        Shaft angle at the same samples, rad, strictly increasing.
+    samples_per_rev : int
+        Grid points per revolution.
+    n_revs : int, optional
+        Whole revolutions to keep (default: as many as the record holds).
+
+    Returns
+    -------
+    theta_grid, x_grid : ndarray
+        ``samples_per_rev * n_revs`` points.
+    """
+    theta = np.asarray(theta_rad, float)
+    bad = np.flatnonzero(np.diff(theta) <= 0)
+    if bad.size:
+        raise MeasurementError(f"shaft angle does not increase at sample {bad[0] + 1}: the shaft stands "
+                               "still or reverses, no angle-domain resampling possible")
+    avail = (theta[-1] - theta[0]) / (2 * math.pi)
+    n_revs = int(math.floor(avail + 1e-9)) if n_revs is None else int(n_revs)
+    if n_revs < 1 or n_revs > avail + 1e-9:
+        raise MeasurementError(f"record holds {avail:.3f} revolutions; {n_revs} whole revolution(s) needed")
+    grid = theta[0] + np.arange(samples_per_rev * n_revs) * (2 * math.pi / samples_per_rev)
+    return grid, CubicSpline(theta, x)(grid)
+
+
+def order_spectrum(x: np.ndarray, theta_rad: np.ndarray, samples_per_rev: int, *, n_revs: int | None = None,
+                   window: str = "rect") -> Spectrum:
+    """Order spectrum (orders of the shaft whose angle is ``theta_rad``) by angle-domain resampling.
+
+    Parameters
+    ----------
+    x, theta_rad : ndarray
+        Signal and shaft angle (rad) at the same samples.
+    samples_per_rev : int
+        Angle-grid points per revolution (highest order = half of it).
+    n_revs : int, optional
+        Whole revolutions to transform (default: all whole revolutions available).
+    window : str
+        Window (``"rect"`` when the record holds whole periods of every order of interest).
+
+    Returns
+    -------
+    Spectrum
+        ``x`` in orders; phase relative to ``theta_rad = 0``: ``x = A cos(order * theta + phase)``.
+    """
+    grid, xg = resample_angle(x, theta_rad, samples_per_rev, n_revs)
+    sp = _one_sided(xg - xg.mean(), window, 1.0 / samples_per_rev, "order")
+    # refer the phases to angle zero instead of the first grid point: x = A cos(q*theta + phase)
+    phase = np.angle(np.exp(1j * (sp.phase_rad - sp.x * grid[0])))
+    return dataclasses.replace(sp, phase_rad=phase)
+
+
+def synchronous_average(x: np.ndarray, theta_rad: np.ndarray, period_rad: float,
+                        samples_per_period: int) -> tuple[np.ndarray, np.ndarray, int]:
+    """Time-synchronous average over whole periods of a shaft angle.
+
+    Parameters
+    ----------
+    x, theta_rad : ndarray
+        Signal and the angle it is synchronized to, rad.
+    period_rad : float
+        Averaging period in that angle (``2*pi`` for one revolution; ``2*pi*z2/gcd`` of the input
+        for the hunting-tooth period).
+    samples_per_period : int
+        Grid points per period.
+
+    Returns
+    -------
+    phase_rad, average, n_periods
+        Angle within the period (from ``theta[0]``), the averaged signal, periods averaged.
+    """
+    theta = np.asarray(theta_rad, float)
+    n_per = int(math.floor((theta[-1] - theta[0]) / period_rad + 1e-9))
+    if n_per < 1:
+        raise MeasurementError(f"record covers {(theta[-1] - theta[0]) / period_rad:.3f} of the averaging period "
+                               f"({period_rad / (2 * math.pi):.4g} rev); at least one whole period is needed")
+    scaled = (theta - theta[0]) * (2 * math.pi / period_rad) + theta[0]  # one period -> one "revolution"
+    _, xg = resample_angle(x, scaled, samples_per_period, n_per)
+    avg = xg.reshape(n_per, samples_per_period).mean(axis=0)
+    return np.arange(samples_per_period) * (period_rad / samples_per_period), avg, n_per
+
+
+@dataclass(frozen=True)
+class Peak:
+    """An annotated spectral line: label (e.g. ``"2xGMF-1xf_out"``), position, amplitude, phase."""
+
+    label: str
+    x: float
+    amplitude: float
+    phase_rad: float
+
+
+def annotate_gmf(spec: Spectrum, gmf: float, f_in: float, f_out: float, *, n_harmonics: int = 3,
+                 n_sidebands: int = 2, search_bins: int = 0) -> list[Peak]:
+    """Label the GMF harmonics and their shaft-order sidebands in a spectrum.
+
+    Parameters
+    ----------
+    spec : Spectrum
+        Time spectrum (Hz) or order spectrum (orders); ``gmf``, ``f_in``, ``f_out`` in the same unit
+        (for an input-order spectrum: ``z1``, ``1`` and ``z1/z2``).
+    n_harmonics, n_sidebands : int
+        GMF harmonics 1..n and sidebands +-1..n_sidebands of each shaft.
+    search_bins : int
+        Take the largest bin within +- this many bins (for lines between bins).
+
+    Returns
+    -------
+    list of Peak
+        Harmonics first (``"1xGMF"``...), then sidebands (``"1xGMF+1xf_in"``...), within the spectrum's range.
+    """
+    peaks = []
+    for h in range(1, n_harmonics + 1):
+        a, p, x = spec.at(h * gmf, search_bins)
+        if a == a:
+            peaks.append(Peak(f"{h}xGMF", x, a, p))
+    for h in range(1, n_harmonics + 1):
+        for name, f in (("f_in", f_in), ("f_out", f_out)):
+            for m in range(1, n_sidebands + 1):
+                for sign in (-1, 1):
+                    x0 = h * gmf + sign * m * f
+                    a, p, x = spec.at(x0, search_bins)
+                    if a == a and x0 > 0:
+                        peaks.append(Peak(f"{h}xGMF{'+' if sign > 0 else '-'}{m}x{name}", x, a, p))
+    return peaks

@@ -1,0 +1,214 @@
+"""Transmission error from two shaft angles, and the whole measurement pipeline.
+
+TE along the line of action (default)::
+
+    TE = r_b1 * theta_1 - r_b2 * theta_2        [m], positive when the output lags
+
+with the angles counted in each shaft's direction of rotation from the first edge. With
+``te_on="pitch"`` the base radii are replaced by the pitch radii, ``TE = r_1 theta_1 - r_2 theta_2``:
+the arc-length difference on the pitch circles of the seed's eqs. 37-40 (there written with the
+shaft-end velocities, ``r/r_s * integral(v_s dt) = r * theta``). Pitch TE = line TE / cos(alpha_t).
+
+The unknown angle offsets and the nominal slope (the residual of ``r_b1 - r_b2 z1/z2`` and of any
+ratio rounding) are removed by a least-squares line (``FilterSettings.detrend = "linear"``).
+"""
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+
+from gearrom.errors import ConfigError, MeasurementError
+from gearrom.signal.angles import AngleData, load_angles
+from gearrom.signal.edges import ReadSettings
+from gearrom.signal.filters import FilterSettings, apply_filters
+from gearrom.signal.measurement import MeasurementMeta, read_meta
+
+log = logging.getLogger(__name__)
+
+DEFAULT_CONFIG = "thesis-helical"
+
+
+@dataclass(frozen=True)
+class GearMeshInfo:
+    """What the TE needs to know about the gear pair (the measurement file does not carry it).
+
+    Parameters
+    ----------
+    z1, z2 : int
+        Teeth of the input (driving) and output gear.
+    rb1_m, rb2_m : float
+        Base radii, m.
+    r1_m, r2_m : float
+        Pitch (reference) radii, m.
+    name : str
+        Where the data came from (config name), informative.
+    """
+
+    z1: int
+    z2: int
+    rb1_m: float
+    rb2_m: float
+    r1_m: float
+    r2_m: float
+    name: str = ""
+
+    def __post_init__(self):
+        for k in ("z1", "z2"):
+            v = getattr(self, k)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
+                raise ConfigError(f"GearMeshInfo: {k}={v!r} must be an integer >= 1")
+        for k in ("rb1_m", "rb2_m", "r1_m", "r2_m"):
+            v = getattr(self, k)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and 0 < v < 10):
+                raise ConfigError(f"GearMeshInfo: {k}={v!r} must be a radius in m (0 < r < 10)")
+
+    @classmethod
+    def from_config(cls, name_or_path: str | Path = DEFAULT_CONFIG) -> GearMeshInfo:
+        """Take teeth, base and pitch radii from a gear configuration (:func:`gearrom.config.load_config`)."""
+        from gearrom.config import load_config
+
+        pair = load_config(name_or_path, check=False).pair
+        (z1, z2), (db1, db2), (d1, d2) = pair.z, pair.db, pair.d
+        return cls(int(z1), int(z2), db1 / 2, db2 / 2, d1 / 2, d2 / 2, name=str(name_or_path))
+
+    @property
+    def ratio(self) -> float:
+        """Nominal speed ratio n_out/n_in = z1/z2."""
+        return self.z1 / self.z2
+
+    @property
+    def hunting_revs_in(self) -> int:
+        """Input revolutions of one hunting-tooth period, z2/gcd(z1, z2)."""
+        return self.z2 // math.gcd(self.z1, self.z2)
+
+    def radii(self, te_on: Literal["line", "pitch"]) -> tuple[float, float]:
+        """``(r_in, r_out)`` the TE is taken on: base radii for ``"line"``, pitch radii for ``"pitch"``."""
+        if te_on == "line":
+            return self.rb1_m, self.rb2_m
+        if te_on == "pitch":
+            return self.r1_m, self.r2_m
+        raise ConfigError(f"te_on={te_on!r} must be 'line' or 'pitch'")
+
+
+@dataclass(frozen=True)
+class TESettings:
+    """Settings of the TE processing.
+
+    Parameters
+    ----------
+    te_on : {"line", "pitch"}
+        Line of action (base radii) or pitch circle (seed eq. 38-40).
+    filters : FilterSettings
+        Detrend / high-pass / Bessel low-pass.
+    samples_per_rev : int or None
+        Angle-grid points per input revolution for order spectra and averages (None: a power of two
+        at least as dense as the time grid, minimum 256).
+    window : str
+        Window of the time-domain amplitude spectrum.
+    ratio_tolerance : float
+        Allowed relative difference of the measured speed ratio from z1/z2.
+    n_harmonics, n_sidebands : int
+        GMF harmonics and shaft-order sidebands annotated.
+    """
+
+    te_on: Literal["line", "pitch"] = "line"
+    filters: FilterSettings = field(default_factory=FilterSettings)
+    samples_per_rev: int | None = None
+    window: str = "hann"
+    ratio_tolerance: float = 0.005
+    n_harmonics: int = 3
+    n_sidebands: int = 2
+
+    def __post_init__(self):
+        if self.te_on not in ("line", "pitch"):
+            raise ConfigError(f"te_on={self.te_on!r} must be 'line' or 'pitch'")
+        if self.samples_per_rev is not None and self.samples_per_rev < 8:
+            raise ConfigError(f"samples_per_rev={self.samples_per_rev!r} must be >= 8 or None")
+
+
+def te_from_angles(theta_in_rad: np.ndarray, theta_out_rad: np.ndarray, mesh: GearMeshInfo,
+                   te_on: Literal["line", "pitch"] = "line") -> np.ndarray:
+    """Raw TE ``r_in*theta_in - r_out*theta_out`` in m (offsets and slope not removed)."""
+    r_in, r_out = mesh.radii(te_on)
+    return r_in * np.asarray(theta_in_rad) - r_out * np.asarray(theta_out_rad)
+
+
+def compute_te(data: AngleData, mesh: GearMeshInfo, settings: TESettings | None = None):
+    """TE of a measurement already read into angles.
+
+    Parameters
+    ----------
+    data : AngleData
+        From :func:`~gearrom.signal.angles.load_angles`.
+    mesh : GearMeshInfo
+    settings : TESettings, optional
+
+    Returns
+    -------
+    TEResult
+
+    Raises
+    ------
+    MeasurementError
+        The measured speed ratio does not match z1/z2 (wrong config or edges_per_rev).
+    """
+    from gearrom.signal.result import TEResult
+
+    settings = settings or TESettings()
+    th1, th2 = data.theta_in_rad, data.theta_out_rad
+    span1 = th1[-1] - th1[0]
+    if not span1 > 0:
+        raise MeasurementError(f"{data.meta.data_path}: channel 'input' does not rotate")
+    ratio = (th2[-1] - th2[0]) / span1
+    if abs(ratio / mesh.ratio - 1) > settings.ratio_tolerance:
+        raise MeasurementError(
+            f"{data.meta.data_path}: measured speed ratio output/input = {ratio:.6f} (t={data.t_s[0]:.6g}.."
+            f"{data.t_s[-1]:.6g} s) does not match z1/z2 = {mesh.z1}/{mesh.z2} = {mesh.ratio:.6f} of "
+            f"{mesh.name or 'the gear data'} (tolerance {100 * settings.ratio_tolerance:g} %): wrong config "
+            "or wrong edges_per_rev?")
+    te = apply_filters(te_from_angles(th1, th2, mesh, settings.te_on), data.fs_hz, settings.filters)
+    meta = data.meta
+    return TEResult(
+        t_s=data.t_s, te_m=te, theta_in_rad=th1, theta_out_rad=th2, fs_hz=data.fs_hz, mesh=mesh,
+        settings=settings, rpm_in=data.rpm_in_measured, rpm_in_nominal=meta.rpm_in,
+        repairs=tuple(r.to_dict() for r in data.repairs), source=str(meta.path), description=meta.description,
+        torque_out_Nm=meta.torque_out_Nm, n_edges=dict(data.n_edges))
+
+
+def resolve_mesh(meta: MeasurementMeta, mesh: GearMeshInfo | None = None,
+                 config: str | Path | None = None) -> GearMeshInfo:
+    """Gear data for a measurement: explicit ``mesh``, else ``config``, else the JSON's ``config``, else the default."""
+    if mesh is not None:
+        return mesh
+    name = config or meta.config or DEFAULT_CONFIG
+    log.info("gear data from config %s", name)
+    return GearMeshInfo.from_config(name)
+
+
+def process_measurement(path: str | Path, mesh: GearMeshInfo | None = None, *, config: str | Path | None = None,
+                        te_settings: TESettings | None = None, read_settings: ReadSettings | None = None):
+    """Read a ``gearrom.measurement/1`` file and compute its TE (the ``gearrom te`` pipeline).
+
+    Parameters
+    ----------
+    path : str or Path
+        Measurement JSON.
+    mesh : GearMeshInfo, optional
+        Gear data; default from ``config`` / the JSON's ``config`` key / ``"thesis-helical"``.
+    config : str or Path, optional
+        Gear configuration name or file.
+    te_settings, read_settings : optional
+
+    Returns
+    -------
+    TEResult
+    """
+    meta = read_meta(path)
+    mesh = resolve_mesh(meta, mesh, config)
+    data = load_angles(meta, read_settings)
+    return compute_te(data, mesh, te_settings)
