@@ -300,7 +300,10 @@ def from_dict(data: Mapping[str, Any], source: Path | None = None, check: bool =
     if check:
         with warnings.catch_warnings(record=True) as rec:
             warnings.simplefilter("always")
-            check_pair(pair)
+            try:
+                check_pair(pair)
+            except GearromError as exc:
+                raise type(exc)(f"{source}: {exc}" if source is not None else str(exc)) from None
         for w in rec:
             caught.append(str(w.message))
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
