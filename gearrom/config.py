@@ -53,6 +53,7 @@ GEAR_KEYS = {
     "tip_diameter_mm": (float, MM, "explicit tip diameter d_a [mm] (drawing; overrides h_a*)"),
     "root_diameter_mm": (float, MM, "explicit root diameter d_f [mm] (drawing; overrides h_f*)"),
     "root_form_diameter_mm": (float, MM, "root form diameter d_Ff [mm] (drawing; else from the tool)"),
+    "tip_edge_radius_mm": (float, MM, "tip edge rounding radius [mm] (default 0: sharp)"),
 }
 TOOL_KEYS = {
     "addendum_mm": (float, MM, "tool addendum h_aP0 [mm] (else from d_f or h_f*)"),
@@ -253,7 +254,7 @@ def _gear(name: str, table: Mapping[str, Any], default_mat: Material, src: Path 
         x=v.get("profile_shift", 0.0), hand=v.get("hand", "spur"),
         addendum_coefficient=v.get("addendum_coefficient", 1.0), dedendum_coefficient=v.get("dedendum_coefficient", 1.25),
         tip_diameter=v.get("tip_diameter_mm"), root_diameter=v.get("root_diameter_mm"),
-        root_form_diameter=v.get("root_form_diameter_mm"),
+        root_form_diameter=v.get("root_form_diameter_mm"), tip_edge_radius=v.get("tip_edge_radius_mm", 0.0),
         material=_material(sub["material"], f"{name}.material", src, default_mat) if sub["material"] else default_mat,
         tool=tool, micro=micro,
     )

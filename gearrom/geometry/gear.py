@@ -159,6 +159,8 @@ class Gear:
         Explicit d_a and d_f [m] as on drawings (override the coefficients).
     root_form_diameter : float or None
         Root form diameter d_Ff [m] from the drawing (else derived from the tool).
+    tip_edge_radius : float
+        Radius of the rounded tip edge [m] (0: sharp).
     material, tool, micro
         See :class:`Material`, :class:`RackTool`, :class:`MicroGeometry`.
     """
@@ -174,6 +176,7 @@ class Gear:
     tip_diameter: float | None = None
     root_diameter: float | None = None
     root_form_diameter: float | None = None
+    tip_edge_radius: float = 0.0
     material: Material = field(default_factory=Material)
     tool: RackTool = field(default_factory=RackTool)
     micro: MicroGeometry = field(default_factory=MicroGeometry)
@@ -189,6 +192,7 @@ class Gear:
             tip_diameter_mm=self.tip_diameter,
             root_diameter_mm=self.root_diameter,
             root_form_diameter_mm=self.root_form_diameter,
+            tip_edge_radius_mm=self.tip_edge_radius or None,
             addendum_coefficient=self.addendum_coefficient,
             dedendum_coefficient=self.dedendum_coefficient,
         )

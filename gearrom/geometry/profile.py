@@ -153,6 +153,7 @@ def tooth_profile(
     n_fillet: int = 30,
     n_tip: int = 8,
     n_root: int = 6,
+    tip_edge_radius: float | None = None,
 ) -> ToothProfile:
     """Generate the transverse outline of one tooth of gear ``i`` (0 input, 1 output).
 
@@ -165,6 +166,9 @@ def tooth_profile(
     n_involute, n_fillet, n_tip, n_root : int
         Points per half tooth on the involute (uniform in roll length), fillet (uniform in arc
         length), tip arc and root arc.
+    tip_edge_radius : float or None
+        Radius [m] of the tip edge rounding (an arc tangent to flank and tip circle, labelled
+        "tip"); default: the gear's ``tip_edge_radius`` (0: sharp edge).
 
     Returns
     -------
@@ -186,6 +190,19 @@ def tooth_profile(
     if eta[-1] <= 0:
         raise GeometryError(f"{pair.gears[i].name}: the flanks cross below the tip (pointed tooth)")
     inv_left = np.column_stack([-r_inv * np.sin(eta), r_inv * np.cos(eta)])  # root -> tip
+    rho_e = pair.gears[i].tip_edge_radius if tip_edge_radius is None else tip_edge_radius
+    edge = np.empty((0, 2))
+    if rho_e > 0:
+        L_t, centre, t_tip = _tip_rounding(pair, i, rho_e)
+        L = np.linspace(L[0], L_t, n_involute)
+        r_inv = np.sqrt(rb**2 + L**2)
+        eta = pair.s_t[i] / pair.d[i] + float(inv(pair.alpha_t)) - inv(np.arccos(np.clip(rb / r_inv, -1, 1)))
+        inv_left = np.column_stack([-r_inv * np.sin(eta), r_inv * np.cos(eta)])
+        a0 = math.atan2(inv_left[-1, 1] - centre[1], inv_left[-1, 0] - centre[0])
+        a1 = math.atan2(t_tip[1] - centre[1], t_tip[0] - centre[0])
+        arc = np.linspace(a0, a0 + (a1 - a0 + math.pi) % (2 * math.pi) - math.pi, n_tip + 1)[1:]
+        edge = centre + rho_e * np.column_stack([np.cos(arc), np.sin(arc)])
+        inv_left = np.vstack([inv_left, edge])
     # fillet (generated trochoid, incl. tip flat -> root circle), ordered root -> form circle
     low = gen[(lab <= 1) & (radius <= r0 * (1 + 1e-12))]
     low = low[low[:, 0] <= 0] if np.any(low[:, 0] <= 0) else low
@@ -208,7 +225,8 @@ def tooth_profile(
         fil_left = fil_left[:-1]
     left = np.vstack([root_left, fil_left, inv_left, tip_left])
     seg_left = np.concatenate([np.zeros(len(root_left)), np.ones(len(fil_left)), np.full(len(inv_left), 2), np.full(len(tip_left), 3)]).astype(int)
-    roll_left = np.concatenate([np.full(len(root_left) + len(fil_left), np.nan), L, np.full(len(tip_left), np.nan)])
+    roll_left = np.concatenate([np.full(len(root_left) + len(fil_left), np.nan), L, np.full(len(edge) + len(tip_left), np.nan)])
+    seg_left[len(root_left) + len(fil_left) + len(L): len(root_left) + len(fil_left) + len(L) + len(edge)] = 3
     right = left[::-1][1:] * np.array([-1.0, 1.0])  # mirror, skip the shared centre-line point
     pts = np.vstack([left, right])
     return ToothProfile(
@@ -218,6 +236,47 @@ def tooth_profile(
         side=np.concatenate([np.full(len(left), -1), np.full(len(right), 1)]),
         form_radius=form_radius,
     )
+
+
+def _tip_rounding(pair: GearPair, i: int, rho: float) -> tuple[float, np.ndarray, np.ndarray]:
+    """Arc of radius ``rho`` tangent to the left involute and to the tip circle.
+
+    Returns the roll length of the flank tangency point, the arc centre and the tip tangency point.
+    """
+    from scipy.optimize import brentq
+
+    rb, ra = pair.rb[i], 0.5 * pair.da[i]
+    s0 = pair.s_t[i] / pair.d[i] + float(inv(pair.alpha_t))
+
+    def point(L: float) -> np.ndarray:
+        r = math.hypot(rb, L)
+        e = s0 - float(inv(math.acos(rb / r)))
+        return np.array([-r * math.sin(e), r * math.cos(e)])
+
+    def point_normal(L: float) -> tuple[np.ndarray, np.ndarray]:
+        h = 1e-7 * max(L, 1e-3)
+        t = point(L + h) - point(L - h)
+        n = np.array([-t[1], t[0]]) / np.linalg.norm(t)
+        return point(L), (n if n[0] > 0 else -n)  # towards the tooth centre line
+
+    def f(L: float) -> float:
+        pt, n = point_normal(L)
+        return float(np.linalg.norm(pt + rho * n)) - (ra - rho)
+
+    L_top = math.sqrt(ra**2 - rb**2)
+    L_lo = max(L_top - 20 * rho, 1e-9)
+    try:
+        L_t = brentq(f, L_lo, L_top)
+    except ValueError:
+        raise GeometryError(
+            f"{pair.gears[i].name}.tip_edge_radius_mm = {rho * 1e3:.4f} does not fit the tooth tip"
+        ) from None
+    pt, n = point_normal(L_t)
+    centre = pt + rho * n
+    t_tip = centre / np.linalg.norm(centre) * ra
+    if t_tip[0] > 0:
+        raise GeometryError(f"{pair.gears[i].name}.tip_edge_radius_mm = {rho * 1e3:.4f} is wider than the tooth tip")
+    return L_t, centre, t_tip
 
 
 def rotate(points: np.ndarray, angle: float) -> np.ndarray:

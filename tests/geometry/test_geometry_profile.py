@@ -124,3 +124,22 @@ def test_helical_twist_follows_lead(helical):
     # arc at the reference circle per unit width = tan(beta) for both (opposite senses)
     assert abs(twist(p, 0, 1.0)) * p.d[0] / 2 == pytest.approx(math.tan(p.beta))
     assert abs(twist(p, 1, 1.0)) * p.d[1] / 2 == pytest.approx(math.tan(p.beta))
+
+
+def test_tip_edge_rounding_is_tangent_to_flank_and_tip(spur, helical):
+    """A 0.2 mm tip edge radius: the arc points lie at that radius from one centre, the outline stays
+    inside the tip circle, and the polyline kinks at both junctions vanish with refinement."""
+    for p in (spur.pair, helical.pair):
+        kinks = []
+        for n in (8, 80):
+            prof = tooth_profile(p, 0, tip_edge_radius=0.2e-3, n_tip=n)
+            left = prof.points[prof.side == -1]
+            seg = prof.segment[prof.side == -1]
+            k = int(np.where(seg == 3)[0][0])
+            ang = []
+            for j in range(k - 1, len(left) - 1):
+                t1, t2 = left[j] - left[j - 1], left[j + 1] - left[j]
+                ang.append(math.degrees(math.acos(np.clip(t1 @ t2 / np.linalg.norm(t1) / np.linalg.norm(t2), -1, 1))))
+            kinks.append(max(ang))
+            assert np.hypot(*prof.points.T).max() <= 0.5 * p.da[0] * (1 + 1e-9)
+        assert kinks[1] < 1.0 and kinks[1] < kinks[0] / 5
