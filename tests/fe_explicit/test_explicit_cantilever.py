@@ -1,0 +1,64 @@
+"""Cantilever free vibration: first bending frequency and energy conservation (no damping).
+
+Reference: Euler-Bernoulli cantilever, f1 = (beta1 L)^2 / (2 pi L^2) sqrt(E' I / (rho A)) with
+beta1 L = 1.87510407 and, for a plane-strain strip (cylindrical bending of a wide plate),
+E' = E / (1 - nu^2) (Timoshenko & Woinowsky-Krieger, Theory of Plates and Shells, sec. 1).
+L/h = 25: shear and rotary inertia lower f1 by about 0.5 % (Timoshenko beam); one-point Q4 with
+6 elements through the thickness and soft hourglass control is a little more flexible again
+(about 1 % at this mesh). Tolerance 3 %.
+Energy: without damping the total (kinetic + internal + hourglass) must stay constant; the
+central-difference scheme is symplectic, so the drift over two periods must be < 0.5 %.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from gearrom.fe.explicit import ExplicitModel, Material, solve
+from gearrom.fe.explicit.meshes import rectangle_q4
+
+L, H = 0.25, 0.01
+BL = 1.8751040687
+
+
+@pytest.fixture(scope="module")
+def run():
+    mat = Material()
+    nodes, elements = rectangle_q4(L, H, 100, 6, y0=-H / 2)
+    e_plane = mat.E / (1 - mat.nu ** 2)
+    f_eb = BL ** 2 / (2 * np.pi * L ** 2) * np.sqrt(e_plane * H ** 2 / 12 / mat.rho)
+    x = nodes[:, 0] / L
+    shape = (np.cosh(BL * x) - np.cos(BL * x)
+             - (np.cosh(BL) + np.cos(BL)) / (np.sinh(BL) + np.sin(BL)) * (np.sinh(BL * x) - np.sin(BL * x)))
+    v0 = np.zeros_like(nodes)
+    v0[:, 1] = 0.5 * shape / shape.max()
+    clamp = np.nonzero(nodes[:, 0] < 1e-12)[0]
+    model = ExplicitModel(nodes, elements, mat, thickness=0.01, node_sets={"clamp": clamp},
+                          fixed={"clamp": (0, 1)}, initial_velocity=v0, hourglass_stiffness=0.05)
+    tip = int(np.argmin(np.abs(nodes[:, 0] - L) + np.abs(nodes[:, 1])))
+    res = solve(model, 2.2 / f_eb, sample_period=1 / f_eb / 400, probes=[tip])
+    return res, f_eb
+
+
+def test_first_bending_frequency(run):
+    res, f_eb = run
+    y = res.probe_u[:, 0, 1]
+    t = res.t
+    i = np.nonzero(y[1:-1] * y[2:] < 0)[0] + 1
+    zc = t[i] - y[i] * (t[i + 1] - t[i]) / (y[i + 1] - y[i])
+    f = 0.5 * (len(zc) - 1) / (zc[-1] - zc[0])
+    assert len(zc) >= 4
+    assert abs(f / f_eb - 1) < 0.03, (f, f_eb)
+
+
+def test_energy_conserved_without_damping(run):
+    res, _ = run
+    total = res.energy("kinetic") + res.energy("internal") + res.energy("hourglass")
+    drift = np.abs(total - total[0]).max() / total[0]
+    assert drift < 0.005, drift
+    assert res.energy("internal").max() > 0.4 * total[0]   # energy really is exchanged
+
+
+def test_hourglass_energy_below_one_percent(run):
+    res, _ = run
+    assert res.hourglass_ratio < 0.01, res.hourglass_ratio
