@@ -18,7 +18,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("measurement", type=Path, help="measurement JSON (format gearrom.measurement/1)")
     parser.add_argument("--json", dest="json_out", metavar="OUT", help="write the summary JSON here ('-' = stdout)")
     parser.add_argument("--plot", metavar="PNG", type=Path, help="write a figure (TE, spectrum, averages)")
-    parser.add_argument("--save", metavar="NC", type=Path, help="save the full TE result (NetCDF)")
+    parser.add_argument("--save", metavar="NPZ", type=Path, help="save the full TE result (.npz, TEResult.load)")
     parser.add_argument("--config", metavar="NAME_OR_PATH",
                         help="gear configuration (default: the measurement's 'config' key, else thesis-helical)")
     parser.add_argument("--te-on", choices=("line", "pitch"), default="line",

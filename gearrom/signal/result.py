@@ -216,36 +216,31 @@ class TEResult:
 
     # -- persistence --------------------------------------------------------------------------
     def save(self, path: str | Path) -> Path:
-        """Save as NetCDF (xarray + h5netcdf): the arrays plus JSON metadata in the attributes."""
-        import xarray as xr
-
+        """Save as one ``.npz`` file: the arrays plus the metadata as a JSON string (``meta_json``)."""
         path = Path(path)
-        attrs = {"gearrom": "TEResult/1", "fs_hz": self.fs_hz, "mesh": json.dumps(dataclasses.asdict(self.mesh)),
-                 "settings": json.dumps({**dataclasses.asdict(self.settings)}),
-                 "rpm_in": self.rpm_in, "rpm_in_nominal": self.rpm_in_nominal, "repairs": json.dumps(list(self.repairs)),
-                 "source": self.source, "description": self.description,
-                 "torque_out_Nm": json.dumps(self.torque_out_Nm), "n_edges": json.dumps(self.n_edges)}
-        ds = xr.Dataset({"te_m": ("t_s", self.te_m), "theta_in_rad": ("t_s", self.theta_in_rad),
-                         "theta_out_rad": ("t_s", self.theta_out_rad)}, coords={"t_s": self.t_s}, attrs=attrs)
-        ds.to_netcdf(path, engine="h5netcdf")
+        meta = {"gearrom": "TEResult/1", "fs_hz": self.fs_hz, "mesh": dataclasses.asdict(self.mesh),
+                "settings": dataclasses.asdict(self.settings), "rpm_in": self.rpm_in,
+                "rpm_in_nominal": self.rpm_in_nominal, "repairs": list(self.repairs), "source": self.source,
+                "description": self.description, "torque_out_Nm": self.torque_out_Nm, "n_edges": self.n_edges}
+        with open(path, "wb") as fh:  # a file handle keeps numpy from appending ".npz"
+            np.savez_compressed(fh, t_s=self.t_s, te_m=self.te_m, theta_in_rad=self.theta_in_rad,
+                                theta_out_rad=self.theta_out_rad, meta_json=np.array(json.dumps(meta)))
         return path
 
     @classmethod
     def load(cls, path: str | Path) -> TEResult:
         """Load a result written by :meth:`save`."""
-        import xarray as xr
-
-        with xr.open_dataset(path, engine="h5netcdf") as ds:
-            ds.load()
-            a = ds.attrs
-            if a.get("gearrom") != "TEResult/1":
-                raise MeasurementError(f"{path}: not a gearrom TEResult file")
-            st = json.loads(a["settings"])
-            st["filters"] = FilterSettings(**st["filters"])
-            return cls(t_s=ds["t_s"].values, te_m=ds["te_m"].values, theta_in_rad=ds["theta_in_rad"].values,
-                       theta_out_rad=ds["theta_out_rad"].values, fs_hz=float(a["fs_hz"]),
-                       mesh=GearMeshInfo(**json.loads(a["mesh"])), settings=TESettings(**st),
-                       rpm_in=float(a["rpm_in"]), rpm_in_nominal=float(a["rpm_in_nominal"]),
-                       repairs=tuple(json.loads(a["repairs"])), source=str(a["source"]),
-                       description=str(a["description"]), torque_out_Nm=json.loads(a["torque_out_Nm"]),
-                       n_edges=json.loads(a["n_edges"]))
+        try:
+            with np.load(path, allow_pickle=False) as z:
+                arrays = {k: z[k] for k in ("t_s", "te_m", "theta_in_rad", "theta_out_rad")}
+                meta = json.loads(str(z["meta_json"]))
+        except (OSError, KeyError, ValueError) as exc:
+            raise MeasurementError(f"{path}: not a readable gearrom TEResult file ({exc})") from None
+        if meta.get("gearrom") != "TEResult/1":
+            raise MeasurementError(f"{path}: not a gearrom TEResult file")
+        st = meta["settings"]
+        st["filters"] = FilterSettings(**st["filters"])
+        return cls(**arrays, fs_hz=float(meta["fs_hz"]), mesh=GearMeshInfo(**meta["mesh"]), settings=TESettings(**st),
+                   rpm_in=float(meta["rpm_in"]), rpm_in_nominal=float(meta["rpm_in_nominal"]),
+                   repairs=tuple(meta["repairs"]), source=meta["source"], description=meta["description"],
+                   torque_out_Nm=meta["torque_out_Nm"], n_edges=meta["n_edges"])

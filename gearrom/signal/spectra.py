@@ -168,27 +168,33 @@ def synchronous_average(x: np.ndarray, theta_rad: np.ndarray, period_rad: float,
     Parameters
     ----------
     x, theta_rad : ndarray
-        Signal and the angle it is synchronized to, rad.
+        Signal and the angle it is synchronized to, rad (strictly increasing).
     period_rad : float
-        Averaging period in that angle (``2*pi`` for one revolution; ``2*pi*z2/gcd`` of the input
-        for the hunting-tooth period).
+        Averaging period in that angle (``2*pi`` for one revolution; ``2*pi*z2/gcd(z1, z2)`` of the
+        input angle for the hunting-tooth period).
     samples_per_period : int
         Grid points per period.
 
     Returns
     -------
-    phase_rad, average, n_periods
-        Angle within the period (from ``theta[0]``), the averaged signal, periods averaged.
+    angle_rad, average, n_periods
+        Angle within the period (sample i at ``i * period_rad / samples_per_period``, modulo the
+        period, angle zero = ``theta_rad == 0``), the averaged signal, periods averaged.
     """
     theta = np.asarray(theta_rad, float)
-    n_per = int(math.floor((theta[-1] - theta[0]) / period_rad + 1e-9))
+    if np.any(np.diff(theta) <= 0):
+        raise MeasurementError("shaft angle does not increase: the shaft stands still or reverses, no "
+                               "synchronous average possible")
+    step = period_rad / samples_per_period
+    i0 = math.ceil(theta[0] / step - 1e-9)  # first grid point on the angle-zero-aligned grid
+    n_per = int(math.floor((theta[-1] - i0 * step) / period_rad + 1e-9))
     if n_per < 1:
         raise MeasurementError(f"record covers {(theta[-1] - theta[0]) / period_rad:.3f} of the averaging period "
                                f"({period_rad / (2 * math.pi):.4g} rev); at least one whole period is needed")
-    scaled = (theta - theta[0]) * (2 * math.pi / period_rad) + theta[0]  # one period -> one "revolution"
-    _, xg = resample_angle(x, scaled, samples_per_period, n_per)
-    avg = xg.reshape(n_per, samples_per_period).mean(axis=0)
-    return np.arange(samples_per_period) * (period_rad / samples_per_period), avg, n_per
+    grid = (i0 + np.arange(n_per * samples_per_period)) * step
+    avg = CubicSpline(theta, x)(grid).reshape(n_per, samples_per_period).mean(axis=0)
+    avg = np.roll(avg, i0 % samples_per_period)
+    return np.arange(samples_per_period) * step, avg, n_per
 
 
 @dataclass(frozen=True)
