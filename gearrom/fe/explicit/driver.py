@@ -10,7 +10,7 @@ import numpy as np
 from gearrom.errors import ConfigError, ModelError
 from gearrom.fe.explicit.geometry import (color_elements, element_geometry, hourglass_coefficients,
                                           stable_time_step)
-from gearrom.fe.explicit.loop import NE_OUT, ramp, run_loop
+from gearrom.fe.explicit.loop import NE_OUT, ramp, run_loop_parallel, run_loop_serial
 from gearrom.fe.explicit.model import ExplicitModel
 from gearrom.fe.explicit.result import ExplicitResult
 
@@ -205,7 +205,7 @@ def _initial_state(model: ExplicitModel, d: dict):
 
 def solve(model: ExplicitModel, t_end: float, sample_period: float | None = None, *,
           dt: float | None = None, safety: float = 0.9, probes=(), chunks: int = 20,
-          prepared: dict | None = None) -> ExplicitResult:
+          prepared: dict | None = None, parallel: bool | None = None) -> ExplicitResult:
     """Run the explicit dynamics of ``model`` from t = 0 to ``t_end``.
 
     Parameters
@@ -224,6 +224,9 @@ def solve(model: ExplicitModel, t_end: float, sample_period: float | None = None
         The run is split into this many compiled calls (progress logged between them).
     prepared : dict, optional
         Output of :func:`prepare` for this model, to skip the set-up.
+    parallel : bool, optional
+        Use the multi-threaded loop (default: when the mesh has >= 3000 elements; below that the
+        per-step thread start-up costs more than it saves).
     """
     if not t_end > 0:
         raise ConfigError(f"t_end must be > 0 s, got {t_end}")
@@ -259,6 +262,9 @@ def solve(model: ExplicitModel, t_end: float, sample_period: float | None = None
     out_pu = np.zeros((nt, probes.size, dim)); out_pv = np.zeros((nt, probes.size, dim))
     chunks = max(1, min(chunks, n_out_total))
     bounds = np.linspace(0, n_out_total, chunks + 1).round().astype(int)
+    if parallel is None:
+        parallel = model.elements.shape[0] >= 3000
+    run_loop = run_loop_parallel if parallel else run_loop_serial
     row = 0
     t0 = 0.0
     wall0 = time.perf_counter()
@@ -293,7 +299,7 @@ def solve(model: ExplicitModel, t_end: float, sample_period: float | None = None
                 dt_stable_s=d["dt_stable"], n_steps=nsteps_total, t_end_s=nsteps_total * step_dt,
                 sample_period_s=sample_period, wall_time_s=wall,
                 element_updates_per_s=nsteps_total * model.elements.shape[0] / wall,
-                n_colors=int(d["cptr"].size - 1), hourglass_stiffness=model.hourglass_stiffness,
+                n_colors=int(d["cptr"].size - 1), parallel=bool(parallel), hourglass_stiffness=model.hourglass_stiffness,
                 hourglass_viscosity=model.hourglass_viscosity, mass_damping=model.mass_damping,
                 material=dict(E_Pa=model.material.E, nu=model.material.nu, rho_kg_m3=model.material.rho),
                 thickness_m=model.thickness, references=[r.nodes for r in model.references],

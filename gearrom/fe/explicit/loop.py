@@ -18,6 +18,7 @@ torques, prescribed-rotation reactions, drivers), 9 balance error sum(0..7) - 8 
 from __future__ import annotations
 
 import math
+import types
 
 import numpy as np
 from numba import njit, prange
@@ -65,8 +66,7 @@ def _table(t, times, vals, npts):
     return vals[npts - 1]
 
 
-@njit(cache=True, parallel=True, fastmath=True)
-def run_loop(nsteps, dt, out_every, t0,
+def _run_loop(nsteps, dt, out_every, t0,
              X, u, v, a, f, mass, kind, fixmask, alpha,
              conn, B, V0, gamma, khg, chg, lam, mu, cptr,
              ld_nodes, ld_ptr, ld_force, ld_t, ld_val, ld_npts, ld_fprev, ld_uprev,
@@ -331,3 +331,15 @@ def run_loop(nsteps, dt, out_every, t0,
     acc[7] = whg
     return nout
 
+
+def _compiled(name: str, parallel: bool):
+    fn = types.FunctionType(_run_loop.__code__, _run_loop.__globals__, name, _run_loop.__defaults__)
+    fn.__qualname__ = name
+    fn.__doc__ = _run_loop.__doc__
+    return njit(cache=True, parallel=parallel, fastmath=True)(fn)
+
+
+#: the loop with prange over nodes and over the elements of each colour (large meshes)
+run_loop_parallel = _compiled("run_loop_parallel", True)
+#: the same loop compiled serially (small meshes: no per-step thread start-up cost)
+run_loop_serial = _compiled("run_loop_serial", False)
