@@ -11,17 +11,17 @@ from gearrom.signal.angles import AngleData, load_angles
 from gearrom.signal.edges import ReadSettings, Repair
 from gearrom.signal.emulate import emulate_channel, emulate_edges
 from gearrom.signal.filters import FilterSettings, apply_filters, bessel_lowpass, highpass
-from gearrom.signal.measurement import (AngleRecord, EdgeRecord, EncoderInfo, MeasurementMeta, read_meta,
-                                        write_measurement)
+from gearrom.signal.measurement import (AngleRecord, EdgeCSVWriter, EdgeRecord, EncoderInfo, MeasurementMeta,
+                                        read_meta, write_measurement, write_meta)
 from gearrom.signal.result import TEResult
 from gearrom.signal.spectra import (Peak, Spectrum, amplitude_spectrum, annotate_gmf, order_spectrum,
                                     resample_angle, synchronous_average)
 from gearrom.signal.te import GearMeshInfo, TESettings, compute_te, process_measurement, te_from_angles
 
 __all__ = [
-    "AngleData", "AngleRecord", "EdgeRecord", "EncoderInfo", "FilterSettings", "GearMeshInfo", "MeasurementMeta",
+    "AngleData", "AngleRecord", "EdgeCSVWriter", "EdgeRecord", "EncoderInfo", "FilterSettings", "GearMeshInfo", "MeasurementMeta",
     "Peak", "ReadSettings", "Repair", "Spectrum", "TEResult", "TESettings", "amplitude_spectrum", "annotate_gmf",
     "apply_filters", "bessel_lowpass", "compute_te", "emulate_channel", "emulate_edges", "highpass", "load_angles",
     "order_spectrum", "process_measurement", "read_meta", "resample_angle", "synchronous_average",
-    "te_from_angles", "write_measurement",
+    "te_from_angles", "write_measurement", "write_meta",
 ]

@@ -253,50 +253,101 @@ def write_measurement(path_json: str | Path, record: EdgeRecord | AngleRecord, *
     """
     path_json = Path(path_json)
     data_path = path_json.with_suffix("." + data_format)
-    doc: dict[str, Any] = {"format": FORMAT, "description": description, "rpm_in": float(rpm_in)}
-    if torque_out_Nm is not None:
-        doc["torque_out_Nm"] = float(torque_out_Nm)
-    if config is not None:
-        doc["config"] = config
     if isinstance(record, EdgeRecord):
-        doc.update(kind="edges", data=data_path.name, clock_hz=float(record.clock_hz),
-                   encoders={ch: {"edges_per_rev": int(n), "location": loc}
-                             for ch, n, loc in zip(CHANNELS, record.edges_per_rev, record.locations)})
+        kw = dict(kind="edges", clock_hz=record.clock_hz, edges_per_rev=record.edges_per_rev,
+                  locations=record.locations)
     elif isinstance(record, AngleRecord):
-        doc.update(kind="angles", data=data_path.name)
+        kw = dict(kind="angles")
     else:
         raise TypeError(f"record must be an EdgeRecord or AngleRecord, got {type(record).__name__}")
-    if extra:
-        doc["extra"] = extra
     if data_format == "csv":
         _write_csv(data_path, record)
     elif data_format == "tdms":
         _write_tdms(data_path, record)
     else:
         raise ValueError(f"data_format must be 'csv' or 'tdms', got {data_format!r}")
+    return write_meta(path_json, data=data_path.name, rpm_in=rpm_in, torque_out_Nm=torque_out_Nm,
+                      description=description, config=config, extra=extra, **kw)
+
+
+class EdgeCSVWriter:
+    """Write an edges CSV (``channel,t_s``) piece by piece, rows merged in time order per piece.
+
+    For long emulated records that do not fit in memory: feed consecutive time windows of both
+    channels (each window's edges later than the previous window's)::
+
+        with EdgeCSVWriter(path, clock_hz) as w:
+            for t_in, t_out in windows:
+                w.write(t_in, t_out)
+
+    Parameters
+    ----------
+    path : str or Path
+        CSV file to create.
+    clock_hz : float
+        Counter clock; the time stamps are written with enough decimals to keep every tick.
+    """
+
+    def __init__(self, path: str | Path, clock_hz: float):
+        self.path = Path(path)
+        self.fmt = f"%.{_fmt_decimals(clock_hz)}f"
+        self._fh = None
+
+    def __enter__(self) -> EdgeCSVWriter:
+        self._fh = open(self.path, "w", newline="\n")
+        self._fh.write("channel,t_s\n")
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self._fh.close()
+
+    def write(self, t_input_s: np.ndarray, t_output_s: np.ndarray, chunk: int = 1_000_000) -> None:
+        """Append the edges of one time window of both channels."""
+        import pandas as pd
+
+        t = np.concatenate([t_input_s, t_output_s])
+        ch = np.concatenate([np.zeros(len(t_input_s), np.int8), np.ones(len(t_output_s), np.int8)])
+        order = np.argsort(t, kind="stable")
+        names = np.array(CHANNELS, dtype=object)
+        for i in range(0, t.size, chunk):
+            idx = order[i:i + chunk]
+            pd.DataFrame({"channel": names[ch[idx]], "t_s": t[idx]}).to_csv(
+                self._fh, index=False, header=False, float_format=self.fmt, lineterminator="\n")
+
+
+def write_meta(path_json: str | Path, *, data: str, kind: Kind, rpm_in: float, clock_hz: float | None = None,
+               edges_per_rev: tuple[int, int] | None = None, locations: tuple[str, str] = ("sensor", "sensor"),
+               torque_out_Nm: float | None = None, description: str = "", config: str | None = None,
+               extra: dict | None = None) -> Path:
+    """Write only the JSON metadata (for data files written separately, e.g. by :class:`EdgeCSVWriter`)."""
+    doc: dict[str, Any] = {"format": FORMAT, "description": description, "rpm_in": float(rpm_in)}
+    if torque_out_Nm is not None:
+        doc["torque_out_Nm"] = float(torque_out_Nm)
+    if config is not None:
+        doc["config"] = config
+    doc.update(kind=kind, data=data)
+    if clock_hz is not None:
+        doc["clock_hz"] = float(clock_hz)
+    if edges_per_rev is not None:
+        doc["encoders"] = {ch: {"edges_per_rev": int(n), "location": loc}
+                           for ch, n, loc in zip(CHANNELS, edges_per_rev, locations)}
+    if extra:
+        doc["extra"] = extra
+    path_json = Path(path_json)
     path_json.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
     return path_json
 
 
-def _write_csv(path: Path, record: EdgeRecord | AngleRecord, chunk: int = 1_000_000) -> None:
-    import pandas as pd
+def _write_csv(path: Path, record: EdgeRecord | AngleRecord) -> None:
+    if isinstance(record, AngleRecord):
+        import pandas as pd
 
-    with open(path, "w", newline="\n") as fh:
-        if isinstance(record, AngleRecord):
-            df = pd.DataFrame({"t_s": record.t_s, "theta_in_rad": record.theta_in_rad,
-                               "theta_out_rad": record.theta_out_rad})
-            df.to_csv(fh, index=False, float_format="%.12g", lineterminator="\n")
-            return
-        t = np.concatenate([record.t_input_s, record.t_output_s])
-        ch = np.concatenate([np.zeros(record.t_input_s.size, np.int8), np.ones(record.t_output_s.size, np.int8)])
-        order = np.argsort(t, kind="stable")
-        names = np.array(CHANNELS, dtype=object)
-        fmt = f"%.{_fmt_decimals(record.clock_hz)}f"
-        fh.write("channel,t_s\n")
-        for i in range(0, t.size, chunk):
-            idx = order[i:i + chunk]
-            pd.DataFrame({"channel": names[ch[idx]], "t_s": t[idx]}).to_csv(
-                fh, index=False, header=False, float_format=fmt, lineterminator="\n")
+        df = pd.DataFrame({"t_s": record.t_s, "theta_in_rad": record.theta_in_rad,
+                           "theta_out_rad": record.theta_out_rad})
+        df.to_csv(path, index=False, float_format="%.12g", lineterminator="\n")
+        return
+    with EdgeCSVWriter(path, record.clock_hz) as w:
+        w.write(record.t_input_s, record.t_output_s)
 
 
 def _write_tdms(path: Path, record: EdgeRecord | AngleRecord) -> None:

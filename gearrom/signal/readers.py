@@ -98,6 +98,7 @@ def _diagnose_csv(path: Path, cols: list[str], first_line: int, max_lines: int) 
                     break
                 if len(fields) != len(cols):
                     return f"line {lineno}: expected {len(cols)} fields {cols}, found {len(fields)}"
+                chan = f", channel {fields[cols.index('channel')]!r}" if "channel" in cols else ""
                 for name, val in zip(cols, fields):
                     if name == "channel":
                         if val not in CHANNELS:
@@ -106,7 +107,7 @@ def _diagnose_csv(path: Path, cols: list[str], first_line: int, max_lines: int) 
                     try:
                         float(val)
                     except ValueError:
-                        return f"line {lineno}: column {name!r}: not a number: {val[:40]!r}"
+                        return f"line {lineno}{chan}: column {name!r}: not a number: {val[:40]!r}"
     except (OSError, csv.Error) as exc:
         return f"cannot scan file: {exc}"
     return None
