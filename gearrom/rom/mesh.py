@@ -1,0 +1,230 @@
+"""Gear mesh element: line-of-action geometry, force law and the non-periodic kinematic error terms.
+
+Force law (transverse line of action, positive = pinion pushes the wheel)::
+
+    F = F_nom + k(theta1) (delta - e(theta1))          drive flank in contact (F > 0)
+    F = 0                                              contact loss: e0 - b < delta < e0
+    F = k(theta1) (delta - e0 + b)  (< 0)              back flank, b = backlash along the LOA
+
+with ``e0 = e - F_nom / k`` (the separation point), ``delta = w . q`` the mesh deflection and a damping
+force ``c d(delta)/dt`` while in contact, ``c = 2 zeta sqrt(k_mean m_eq)``. ``k`` and ``e`` come from a
+:class:`~gearrom.excitation.table.MeshExcitation` at the nominal torque; the form is the same for a
+secant and a tangent table. In quasi-static motion ``F = F_nom`` so ``delta = e``: the ROM reproduces
+the table's STE exactly.
+
+Non-periodic kinematic error terms (:class:`Effects`), added to ``e``; angles in each gear's drive sense:
+
+* :class:`Runout`: eccentricity ``ecc`` of gear ``i`` (= F_r / 2): TE term ``ecc sin(theta_i + phase)``.
+  The radial component ``ecc cos(theta_i + phase)`` changes the centre distance and modulates the mesh:
+  ``k -> k (1 + kappa da)`` and the fluctuating part of ``e`` by ``(1 - kappa da)``, with
+  ``kappa = 0.75 d(eps_alpha)/da / (0.75 eps_alpha + 0.25)`` (ISO c_gamma shape) and
+  ``d(eps_alpha)/da = -1 / (p_bt sin alpha_wt)``.
+* :class:`PitchDeviations`: single pitch deviations ``f_p`` of every tooth (positive = tooth ahead in its
+  gear's rotation). The cumulative deviation (mean ``f_p`` removed so that it closes) is averaged over
+  the contact-ratio window (load sharing) and enters with sign -1 for the input, +1 for the output gear.
+* :class:`ExtraTE`: any callable ``fn(theta1, theta2) -> m``.
+* :class:`LoadRipple`: brake torque ripple ``A sin(order theta2 + phase)`` [N m].
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from gearrom.errors import ModelError
+from gearrom.geometry.pair import GearPair
+
+
+@dataclass(frozen=True)
+class Runout:
+    """Eccentricity [m] (= F_r / 2) and phase [rad] of gear ``gear`` (0 input, 1 output)."""
+
+    gear: int
+    eccentricity: float
+    phase: float = 0.0
+    modulation: bool = True
+
+
+@dataclass(frozen=True)
+class PitchDeviations:
+    """Single pitch deviation of every tooth of gear ``gear`` [m] (one per tooth)."""
+
+    gear: int
+    deviations: tuple[float, ...]
+
+
+@dataclass(frozen=True)
+class ExtraTE:
+    """A user kinematic error term ``fn(theta1, theta2) -> m`` (drive-sense absolute angles [rad])."""
+
+    fn: Callable[[float, float], float]
+    label: str = "extra"
+
+
+@dataclass(frozen=True)
+class LoadRipple:
+    """Brake torque ripple ``amplitude sin(order theta2 + phase)`` [N m], order per output revolution."""
+
+    order: float
+    amplitude: float
+    phase: float = 0.0
+
+
+@dataclass(frozen=True)
+class Effects:
+    """Non-periodic error terms of one run (all optional)."""
+
+    runout: tuple[Runout, ...] = ()
+    pitch: tuple[PitchDeviations, ...] = ()
+    extra: tuple[ExtraTE, ...] = ()
+    load_ripple: tuple[LoadRipple, ...] = ()
+
+    @classmethod
+    def from_pair(cls, pair: GearPair) -> "Effects":
+        """Runout and pitch deviations recorded in the gears' enabled micro-geometry."""
+        run, pit = [], []
+        for i, g in enumerate(pair.gears):
+            m = g.micro
+            if not m.enabled:
+                continue
+            if m.runout > 0:
+                run.append(Runout(i, m.eccentricity, m.runout_phase))
+            if m.pitch_deviations:
+                pit.append(PitchDeviations(i, tuple(m.pitch_deviations)))
+        return cls(runout=tuple(run), pitch=tuple(pit))
+
+    @property
+    def empty(self) -> bool:
+        return not (self.runout or self.pitch or self.extra or self.load_ripple)
+
+
+def line_of_action(pair: GearPair) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Transverse mesh vectors ``(w1, w2)`` over ``(ux, uy, uz, rx, ry, rz)`` of each gear and the normal ``n``.
+
+    Gear 1 at the origin, gear 2 at ``(a_w, 0, 0)``, axes along +z, pinion turning about +z. The
+    contact point is the pitch point at mid-face; ``delta_t = w1 . q1 + w2 . q2`` with
+    ``delta_t = rb1 rz1 + rb2 rz2`` for pure rotation (``rz2 = -theta2``).
+    """
+    a = pair.alpha_wt
+    bb = pair.beta_b
+    hand = 1.0 if pair.gears[0].hand in ("right", "spur") else -1.0
+    n = np.array([math.sin(a) * math.cos(bb), math.cos(a) * math.cos(bb), hand * math.sin(bb)])
+    rw1, rw2 = 0.5 * pair.dw[0], 0.5 * pair.dw[1]
+    r1, r2 = np.array([rw1, 0.0, 0.0]), np.array([-rw2, 0.0, 0.0])
+    w1 = np.concatenate([n, np.cross(r1, n)]) / math.cos(bb)
+    w2 = -np.concatenate([n, np.cross(r2, n)]) / math.cos(bb)
+    return w1, w2, n
+
+
+def centre_distance_sensitivity(pair: GearPair) -> float:
+    """kappa = d ln(c_gamma) / d a_w [1/m] (ISO c_gamma shape, see module docstring)."""
+    de = -1.0 / (pair.pb_t * math.sin(pair.alpha_wt))
+    return 0.75 * de / (0.75 * pair.eps_alpha + 0.25)
+
+
+def pitch_curve(pair: GearPair, gear: int, deviations, n_per_pitch: int = 32) -> np.ndarray:
+    """Smoothed cumulative pitch deviation over one revolution of ``gear`` (``z * n_per_pitch`` points) [m]."""
+    z = pair.z[gear]
+    fp = np.asarray(deviations, dtype=float)
+    if fp.size != z:
+        raise ModelError(f"pitch deviations of gear {gear} need {z} values, got {fp.size}")
+    cum = np.cumsum(fp - fp.mean())
+    cum -= cum.mean()
+    steps = np.repeat(cum, n_per_pitch)
+    width = max(1, int(round(pair.eps_gamma * n_per_pitch)))
+    kernel = np.ones(width) / width
+    ext = np.concatenate([steps[-width:], steps, steps[:width]])
+    sm = np.convolve(ext, kernel, mode="same")[width:-width]
+    return sm
+
+
+@dataclass
+class MeshLaw:
+    """Evaluates ``k`` and ``e`` (with effects) at given drive-sense angles; fast scalar path for the solver."""
+
+    pair: GearPair
+    theta_grid: np.ndarray  # one mesh period, uniform
+    k_grid: np.ndarray
+    e_grid: np.ndarray
+    f_nom: float
+    effects: Effects = field(default_factory=Effects)
+
+    def __post_init__(self) -> None:
+        self.z1 = self.pair.z[0]
+        self.n = self.theta_grid.size
+        self.kl = self.k_grid.tolist() + [float(self.k_grid[0])]
+        self.el = self.e_grid.tolist() + [float(self.e_grid[0])]
+        self.e_mean = float(np.mean(self.e_grid))
+        self.scale = self.n * self.z1 / (2 * math.pi)
+        self.kappa = centre_distance_sensitivity(self.pair)
+        self.pitch = []
+        for p in self.effects.pitch:
+            curve = pitch_curve(self.pair, p.gear, p.deviations)
+            sign = -1.0 if p.gear == 0 else 1.0
+            self.pitch.append((p.gear, (sign * curve).tolist() + [float(sign * curve[0])],
+                               curve.size / (2 * math.pi)))
+
+    def _base(self, th1: float) -> tuple[float, float]:
+        x = th1 * self.scale
+        i = math.floor(x)
+        f = x - i
+        i %= self.n
+        return (self.kl[i] + f * (self.kl[i + 1] - self.kl[i]), self.el[i] + f * (self.el[i + 1] - self.el[i]))
+
+    def evaluate(self, th1: float, th2: float) -> tuple[float, float]:
+        """``(k [N/m], e [m])`` at drive-sense angles ``th1``, ``th2`` [rad], all effects included."""
+        k, e = self._base(th1)
+        eff = self.effects
+        if eff.empty:
+            return k, e
+        mod = 0.0
+        ths = (th1, th2)
+        for r in eff.runout:
+            if r.modulation:
+                mod += self.kappa * r.eccentricity * math.cos(ths[r.gear] + r.phase)
+        if mod:
+            e = e - mod * (e - self.e_mean)
+            k *= 1.0 + mod
+        for r in eff.runout:
+            e += r.eccentricity * math.sin(ths[r.gear] + r.phase)
+        for gear, curve, sc in self.pitch:
+            x = ths[gear] * sc
+            i = math.floor(x)
+            f = x - i
+            i %= len(curve) - 1
+            e += curve[i] + f * (curve[i + 1] - curve[i])
+        for ex in eff.extra:
+            e += float(ex.fn(th1, th2))
+        return k, e
+
+    def evaluate_array(self, th1: np.ndarray, th2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Vectorised :meth:`evaluate` for post-processing (same formulas)."""
+        th1, th2 = np.asarray(th1, dtype=float), np.asarray(th2, dtype=float)
+        period = 2 * math.pi / self.z1
+        xp = np.append(self.theta_grid, period)
+        ph = np.mod(th1, period)
+        k = np.interp(ph, xp, self.kl)
+        e = np.interp(ph, xp, self.el)
+        eff = self.effects
+        mod = np.zeros_like(th1)
+        ths = (th1, th2)
+        for r in eff.runout:
+            if r.modulation:
+                mod = mod + self.kappa * r.eccentricity * np.cos(ths[r.gear] + r.phase)
+        e = e - mod * (e - self.e_mean)
+        k = k * (1.0 + mod)
+        for r in eff.runout:
+            e = e + r.eccentricity * np.sin(ths[r.gear] + r.phase)
+        for gear, curve, sc in self.pitch:
+            n = len(curve) - 1
+            x = np.mod(ths[gear] * sc, n)
+            e = e + np.interp(x, np.arange(n + 1), curve)
+        for ex in eff.extra:
+            e = e + np.array([float(ex.fn(a, b)) for a, b in zip(th1, th2)])
+        return k, e
+
+    def ripple(self, th2: float) -> float:
+        """Brake torque ripple [N m] at output angle ``th2``."""
+        return sum(r.amplitude * math.sin(r.order * th2 + r.phase) for r in self.effects.load_ripple)

@@ -1,0 +1,156 @@
+"""Result of one time-domain run: :class:`DynamicRun`."""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from gearrom.errors import ModelError
+from gearrom.excitation.table import netcdf_engine
+
+
+@dataclass(eq=False)
+class DynamicRun:
+    """Time histories of one steady-state run (SI units).
+
+    Attributes
+    ----------
+    time : ndarray (n,)
+        Time from the start of the recorded steady state [s].
+    encoders : tuple of str
+        Encoder names, e.g. ``("in.sensor", "in.clutch", "out.sensor", "out.clutch")``.
+    encoder_radius : ndarray (n_enc,)
+        Shaft radius at each encoder [m].
+    theta : ndarray (n_enc, n)
+        Absolute encoder angles in each shaft's drive sense [rad].
+    dte : dict of str -> ndarray (n,)
+        Dynamic TE along the transverse line of action (base radii) per side (``"sensor"``, ``"clutch"``)
+        [m]: ``rb1 theta_in - rb2 theta_out`` minus its nominal rigid part; positive = output lags.
+    delta : ndarray (n,)
+        Mesh deflection ``delta_t`` [m].
+    force : ndarray (n,)
+        Transverse mesh force [N] (negative on the back flank).
+    ste : ndarray (n,)
+        Static TE of the excitation (with the run's effects) at the sampled mesh angles [m].
+    rpm_in, torque_out, f_nom : float
+        Input speed [rpm], load torque [N m], nominal mesh force ``T_out / rb2`` [N].
+    radii : dict
+        ``rb1, rb2, r1, r2``: base and pitch radii [m] (for :meth:`dte_at`).
+    metadata : dict
+        Step size, modes kept, wall time, config digest...
+    """
+
+    time: np.ndarray
+    encoders: tuple[str, ...]
+    encoder_radius: np.ndarray
+    theta: np.ndarray
+    dte: dict[str, np.ndarray]
+    delta: np.ndarray
+    force: np.ndarray
+    ste: np.ndarray
+    rpm_in: float
+    torque_out: float
+    f_nom: float
+    radii: dict[str, float]
+    metadata: dict = field(default_factory=dict)
+
+    # ------------------------------------------------------------- derived
+    @property
+    def contact_loss(self) -> bool:
+        """True when the drive flanks separated at some sample (mesh force <= 0)."""
+        return bool(np.any(self.force <= 0.0))
+
+    @property
+    def back_contact(self) -> bool:
+        """True when the back flanks touched (negative mesh force)."""
+        return bool(np.any(self.force < 0.0))
+
+    @property
+    def dynamic_factor(self) -> float:
+        """Largest mesh force over the nominal one, ``max F / (T_out / rb2)`` [-]."""
+        return float(np.max(self.force) / self.f_nom)
+
+    def dte_at(self, side: str = "sensor", radius: str = "base") -> np.ndarray:
+        """DTE [m] at ``side``; ``radius="pitch"`` scales to the pitch circles as the seed's eqs. 39/40 do."""
+        if side not in self.dte:
+            raise ModelError(f"DynamicRun has no side {side!r} (available: {', '.join(self.dte)})")
+        if radius == "base":
+            return self.dte[side]
+        if radius == "pitch":
+            return self.dte[side] * self.radii["r1"] / self.radii["rb1"]
+        raise ModelError(f"radius must be 'base' or 'pitch', got {radius!r}")
+
+    def gmf_amplitudes(self, side: str = "sensor", orders: int = 3) -> np.ndarray:
+        """Zero-to-peak DTE amplitudes [m] at mesh orders 1..``orders`` (DFT at the exact frequencies)."""
+        z1 = self.metadata.get("z1")
+        x = self.dte_at(side) - np.mean(self.dte_at(side))
+        f_mesh = z1 * self.rpm_in / 60.0
+        t = self.time
+        out = []
+        for m in range(1, orders + 1):
+            ph = np.exp(-2j * np.pi * m * f_mesh * t)
+            out.append(2 * abs(np.mean(x * ph)))
+        return np.array(out)
+
+    # ------------------------------------------------------------------ I/O
+    def to_dataset(self):
+        import xarray as xr
+
+        data = {"theta": (("encoder", "time"), self.theta, {"units": "rad"}),
+                "delta": ("time", self.delta, {"units": "m"}), "force": ("time", self.force, {"units": "N"}),
+                "ste": ("time", self.ste, {"units": "m"}),
+                "encoder_radius": ("encoder", self.encoder_radius, {"units": "m"})}
+        for side, v in self.dte.items():
+            data[f"dte_{side}"] = ("time", v, {"units": "m"})
+        return xr.Dataset(data, coords={"time": self.time, "encoder": list(self.encoders)},
+                          attrs={"format": "gearrom.DynamicRun", "rpm_in": self.rpm_in, "torque_out_Nm": self.torque_out,
+                                 "f_nom_N": self.f_nom, "radii_json": json.dumps(self.radii),
+                                 "metadata_json": json.dumps(self.metadata, default=str)})
+
+    def save(self, path: str | Path) -> Path:
+        """Write to NetCDF."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        self.to_dataset().to_netcdf(path, engine=netcdf_engine())
+        return path
+
+    @classmethod
+    def load(cls, path: str | Path) -> "DynamicRun":
+        """Read a file written by :meth:`save`."""
+        import xarray as xr
+
+        with xr.open_dataset(path, engine=netcdf_engine()) as ds:
+            if ds.attrs.get("format") != "gearrom.DynamicRun":
+                raise ModelError(f"{path}: not a gearrom DynamicRun file")
+            dte = {k[4:]: ds[k].values for k in ds.data_vars if k.startswith("dte_")}
+            return cls(time=ds["time"].values, encoders=tuple(str(e) for e in ds["encoder"].values),
+                       encoder_radius=ds["encoder_radius"].values, theta=ds["theta"].values, dte=dte,
+                       delta=ds["delta"].values, force=ds["force"].values, ste=ds["ste"].values,
+                       rpm_in=float(ds.attrs["rpm_in"]), torque_out=float(ds.attrs["torque_out_Nm"]),
+                       f_nom=float(ds.attrs["f_nom_N"]), radii=json.loads(ds.attrs["radii_json"]),
+                       metadata=json.loads(ds.attrs["metadata_json"]))
+
+    def plot(self):
+        """DTE (sensor and clutch side) with the STE, and the mesh force."""
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        fig, ax = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
+        t = self.time * 1e3
+        for side, v in self.dte.items():
+            ax[0].plot(t, (v - v.mean()) * 1e6, lw=0.8, label=f"DTE {side} side")
+        ax[0].plot(t, (self.ste - self.ste.mean()) * 1e6, "k--", lw=0.8, label="STE (excitation)")
+        ax[0].set_ylabel("TE - mean [um]")
+        ax[0].legend(fontsize=8)
+        ax[1].plot(t, self.force, lw=0.8)
+        ax[1].axhline(self.f_nom, color="k", ls=":", lw=0.8)
+        ax[1].set_ylabel("mesh force [N]")
+        ax[1].set_xlabel("time [ms]")
+        ax[0].set_title(f"{self.metadata.get('config', '')} {self.rpm_in:.0f} rpm, {self.torque_out:.0f} N m"
+                        f"{', CONTACT LOSS' if self.contact_loss else ''}", fontsize=9)
+        fig.tight_layout()
+        return fig
