@@ -6,7 +6,7 @@ zone are skipped at once. A slave keeps up to ``K`` candidate segments of its ow
 centroid lies within (segment radius + margin). The search is repeated when a contact node has moved
 by more than (margin - capture depth) / 2 since the last search, so no pair can be missed.
 
-Force: for the candidate with the projection inside the segment and the smallest penetration
+Force: for the candidate with the projection inside the segment (up to ``SEG_TOL`` beyond its ends) and the smallest penetration
 0 < -g <= capture depth, the slave gets f = k (-g) n (n the outward master normal), the master nodes
 get -f times their shape functions at the projection. Coulomb friction is regularized by the slip
 velocity: f_t = -mu f_n v_t / sqrt(|v_t|^2 + v_reg^2). The penalty energy k g^2 / 2 and the friction
@@ -18,6 +18,10 @@ import math
 
 import numpy as np
 from numba import njit
+
+#: a projection may fall this fraction of the segment length beyond its ends (so that a slave node
+#: sitting exactly on a master corner node does not flicker in and out of contact)
+SEG_TOL = 0.02
 
 
 @njit(cache=True)
@@ -149,7 +153,7 @@ def contact_forces_2d(x, v, slaves, s_pair, segs, g_k, cand, ncand, p_mu, p_vreg
             L2 = tx * tx + ty * ty
             rx = x[n, 0] - x[a, 0]; ry = x[n, 1] - x[a, 1]
             xi = (rx * tx + ry * ty) / L2
-            if xi < -1e-6 or xi > 1.0 + 1e-6:
+            if xi < -SEG_TOL or xi > 1.0 + SEG_TOL:
                 continue
             g = (rx * ty - ry * tx) / math.sqrt(L2)
             if g < 0.0 and g > -depth and (best < 0 or g > bg):
@@ -235,7 +239,7 @@ def contact_forces_3d(x, v, slaves, s_pair, segs, g_k, cand, ncand, p_mu, p_vreg
                 g = r0 * n0 + r1 * n1 + r2 * n2
                 if abs(dxi) + abs(deta) < 1e-10:
                     break
-            if abs(xi) > 1.0 + 1e-6 or abs(eta) > 1.0 + 1e-6:
+            if abs(xi) > 1.0 + 2 * SEG_TOL or abs(eta) > 1.0 + 2 * SEG_TOL:
                 continue
             if g < 0.0 and g > -depth and (best < 0 or g > bg):
                 best = s; bg = g
