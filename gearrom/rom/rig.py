@@ -33,12 +33,12 @@ SHAFT_DEFAULTS = {
 }
 DEFAULTS: dict[str, dict[str, Any]] = {
     "bearings": {"ball_radial_N_per_um": 200.0, "ball_axial_N_per_um": 50.0, "needle_radial_N_per_um": 300.0,
-                 "damping_beta_us": 20.0},
-    "clutch": {"stiffness_Nm_per_rad": 120000.0, "damping_Nms_per_rad": 1.0, "hub_inertia_kg_m2": 5e-4},
+                 "damping_beta_us": 5.0},
+    "clutch": {"stiffness_Nm_per_rad": 200000.0, "damping_Nms_per_rad": 1.0, "hub_inertia_kg_m2": 5e-4},
     "motor": {"inertia_kg_m2": 0.02, "speed_gain_Nms_per_rad": 20.0},
     "load": {"inertia_kg_m2": 0.05},
 }
-ROM_DEFAULTS = {"mesh_damping_ratio": 0.05, "shaft_damping_beta_us": 10.0, "backlash_um": 50.0,
+ROM_DEFAULTS = {"mesh_damping_ratio": 0.05, "shaft_damping_beta_us": 2.0, "backlash_um": 50.0,
                 "cutoff_frequency_kHz": 12.0, "max_step_us": 20.0, "excitation": "analytical",
                 "excitation_torques_Nm": [], "n_theta": 256}
 

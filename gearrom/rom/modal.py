@@ -1,0 +1,185 @@
+"""Modal analysis and Campbell diagram from the assembled matrices (scipy).
+
+At the mean mesh stiffness the model is ``M x'' + (D + Omega G) x' + (K + k w w^T) x = 0``. Natural
+frequencies come from the undamped gyroscopic problem (first-order form, ``D = 0``), damping ratios
+from the damped one. The mesh strain-energy share of a mode is ``k |w . x|^2 / (x^H K_tot x)``.
+The rigid rotation (zero frequency, speed-controlled motor) is dropped.
+"""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import scipy.linalg as sla
+
+from gearrom.errors import ModelError
+from gearrom.rom.model import Drivetrain
+
+
+@dataclass(eq=False)
+class ModalResult:
+    """Modes at one speed: frequencies [Hz], damping ratios [-], shapes (n_dof, n_modes), mesh energy share."""
+
+    rpm_in: float
+    freqs: np.ndarray
+    damping: np.ndarray
+    shapes: np.ndarray
+    mesh_share: np.ndarray
+    labels: list[str]
+
+    def dominant(self, i: int, n: int = 3) -> list[str]:
+        """Labels of the ``n`` DOFs with the largest amplitude in mode ``i``."""
+        a = np.abs(self.shapes[:, i])
+        return [self.labels[j] for j in np.argsort(a)[::-1][:n]]
+
+    def table(self) -> list[dict]:
+        return [{"mode": i + 1, "frequency_Hz": float(f), "damping_ratio": float(z), "mesh_energy_share": float(s),
+                 "dominant_dofs": self.dominant(i)} for i, (f, z, s) in enumerate(zip(self.freqs, self.damping, self.mesh_share))]
+
+
+def _first_order_eigs(M, K, C):
+    n = M.shape[0]
+    Minv = np.linalg.inv(M)
+    A = np.block([[np.zeros((n, n)), np.eye(n)], [-Minv @ K, -Minv @ C]])
+    lam, vec = np.linalg.eig(A)
+    sel = lam.imag > 1e-6
+    lam, vec = lam[sel], vec[:n, sel]
+    order = np.argsort(np.abs(lam))
+    return lam[order], vec[:, order]
+
+
+def modal_analysis(model: Drivetrain, rpm_in: float = 0.0, torque_out: float | None = None,
+                   fmax: float | None = None) -> ModalResult:
+    """Modes of ``model`` at ``rpm_in`` with the mean mesh stiffness at ``torque_out`` [N m].
+
+    Parameters
+    ----------
+    fmax : float, optional
+        Keep modes up to this frequency [Hz] (default all).
+    """
+    torque = float(model.metadata.get("torque_out_Nm", 120.0) if torque_out is None else torque_out)
+    M, K, D = model.linear(rpm_in, torque)
+    _, _, _, G = model.structure
+    omega = rpm_in * 2 * math.pi / 60
+    lam, vec = _first_order_eigs(M, K, omega * G)
+    freqs = np.abs(lam) / (2 * math.pi)
+    rigid = freqs < 1.0
+    lam, vec, freqs = lam[~rigid], vec[:, ~rigid], freqs[~rigid]
+    if fmax is not None:
+        keep = freqs <= fmax
+        lam, vec, freqs = lam[keep], vec[:, keep], freqs[keep]
+    k = model.excitation.mean_stiffness(torque)
+    strain = np.real(np.einsum("im,ij,jm->m", vec.conj(), K, vec))
+    share = k * np.abs(model.w @ vec) ** 2 / np.maximum(strain, 1e-300)
+    # damping ratios from the damped problem, matched by frequency
+    lam_d, _ = _first_order_eigs(M, K, D)
+    fd = np.abs(lam_d) / (2 * math.pi)
+    zeta = np.array([-lam_d[np.argmin(abs(fd - f))].real / abs(lam_d[np.argmin(abs(fd - f))]) for f in freqs])
+    shapes = vec / vec[np.argmax(np.abs(vec), axis=0), np.arange(vec.shape[1])]
+    return ModalResult(float(rpm_in), freqs, zeta, shapes, np.clip(share, 0.0, 1.0), model.dof_labels())
+
+
+@dataclass(eq=False)
+class CampbellResult:
+    """Natural frequencies vs speed, excitation orders and crossings.
+
+    Attributes
+    ----------
+    rpm : ndarray (n_rpm,)
+        Input speeds [rpm].
+    freqs, mesh_share : ndarray (n_rpm, n_modes)
+        Frequencies [Hz] (sorted at each speed) and mesh strain-energy shares [-].
+    orders : dict of str -> float
+        Excitation frequency per input rpm/60: ``GMF1..3`` (m z1), ``input shaft`` (1), ``output shaft`` (z1/z2).
+    crossings : list of dict
+        ``{"mode", "order", "rpm_in", "frequency_Hz", "mesh_energy_share"}``.
+    """
+
+    config: str
+    rpm: np.ndarray
+    freqs: np.ndarray
+    mesh_share: np.ndarray
+    orders: dict[str, float]
+    crossings: list[dict] = field(default_factory=list)
+
+    def to_json(self) -> dict:
+        return {"config": self.config, "rpm_in": self.rpm.tolist(),
+                "modes_Hz_at_lowest_speed": self.freqs[0].tolist(),
+                "mesh_energy_share_at_lowest_speed": self.mesh_share[0].tolist(),
+                "orders": self.orders, "crossings": self.crossings}
+
+    def save(self, path: str | Path) -> Path:
+        """Write JSON (all arrays included)."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        d = self.to_json()
+        d["freqs_Hz"] = self.freqs.tolist()
+        d["mesh_share"] = self.mesh_share.tolist()
+        path.write_text(json.dumps(d, indent=1) + "\n")
+        return path
+
+    @classmethod
+    def load(cls, path: str | Path) -> "CampbellResult":
+        d = json.loads(Path(path).read_text())
+        if "freqs_Hz" not in d:
+            raise ModelError(f"{path}: not a gearrom Campbell file (no 'freqs_Hz')")
+        return cls(d["config"], np.array(d["rpm_in"]), np.array(d["freqs_Hz"]), np.array(d["mesh_share"]),
+                   d["orders"], d["crossings"])
+
+    def plot(self, fmax: float | None = None):
+        """Campbell diagram: modes (colour = mesh energy share), order lines, crossing markers."""
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        fig, ax = plt.subplots(figsize=(8, 6))
+        fmax = fmax or 1.1 * max(v for v in self.orders.values()) * self.rpm[-1] / 60
+        for j in range(self.freqs.shape[1]):
+            if self.freqs[:, j].min() > fmax:
+                continue
+            sc = ax.scatter(self.rpm, self.freqs[:, j], c=self.mesh_share[:, j], s=6, cmap="viridis", vmin=0, vmax=1)
+        for name, o in self.orders.items():
+            ax.plot(self.rpm, o * self.rpm / 60, "--", lw=0.8, label=name)
+        for c in self.crossings:
+            if c["frequency_Hz"] <= fmax:
+                ax.plot(c["rpm_in"], c["frequency_Hz"], "rx", ms=5)
+        ax.set_ylim(0, fmax)
+        ax.set_xlabel("input speed [rpm]")
+        ax.set_ylabel("frequency [Hz]")
+        ax.set_title(f"Campbell diagram {self.config} (colour: mesh strain-energy share)", fontsize=9)
+        fig.colorbar(sc, ax=ax, label="mesh energy share")
+        ax.legend(fontsize=7, loc="upper left")
+        fig.tight_layout()
+        return fig
+
+
+def campbell(model: Drivetrain, rpm, torque_out: float | None = None, fmax: float | None = None,
+             gmf_orders: int = 3, min_share: float = 0.0) -> CampbellResult:
+    """Campbell diagram over the speeds ``rpm`` (modes up to ``fmax`` [Hz], default 1.2 x 3rd GMF at top speed)."""
+    rpm = np.asarray(rpm, dtype=float)
+    z1, z2 = model.pair.z
+    orders = {f"GMF{m}": float(m * z1) for m in range(1, gmf_orders + 1)}
+    orders.update({"input shaft": 1.0, "output shaft": z1 / z2})
+    fmax = fmax or 1.2 * gmf_orders * z1 * rpm.max() / 60
+    res = [modal_analysis(model, r, torque_out, fmax=fmax) for r in rpm]
+    n = min(len(r.freqs) for r in res)
+    F = np.array([r.freqs[:n] for r in res])
+    S = np.array([r.mesh_share[:n] for r in res])
+    crossings = []
+    for name, o in orders.items():
+        line = o * rpm / 60
+        for j in range(n):
+            d = F[:, j] - line
+            for i in np.nonzero(np.sign(d[:-1]) * np.sign(d[1:]) < 0)[0]:
+                a = d[i] / (d[i] - d[i + 1])
+                share = float(S[i, j] + a * (S[i + 1, j] - S[i, j]))
+                if share >= min_share:
+                    crossings.append({"mode": j + 1, "order": name, "rpm_in": float(rpm[i] + a * (rpm[i + 1] - rpm[i])),
+                                      "frequency_Hz": float(F[i, j] + a * (F[i + 1, j] - F[i, j])),
+                                      "mesh_energy_share": share})
+    crossings.sort(key=lambda c: c["rpm_in"])
+    return CampbellResult(model.metadata.get("config", model.name), rpm, F, S, orders, crossings)
