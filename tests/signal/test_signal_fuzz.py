@@ -16,22 +16,26 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from gearrom.errors import MeasurementError
-from gearrom.signal import ReadSettings, emulate_edges, load_angles, write_measurement
+from gearrom.signal import AngleRecord, ReadSettings, emulate_edges, load_angles, write_measurement
 
 READ = ReadSettings(chunk_rows=64, block=16)
 
 
-def _base_run(folder: Path, data_format: str) -> Path:
+def _base_run(folder: Path, name: str) -> Path:
     t = np.linspace(0.0, 0.05, 2001)
     w = 2 * math.pi * 1250 / 60
-    rec = emulate_edges(t, w * t, w * t * 32 / 41, edges_per_rev=1000, clock_hz=1e8)
-    return write_measurement(folder / f"base_{data_format}.json", rec, rpm_in=1250.0, data_format=data_format)
+    if name == "angles":
+        rec = AngleRecord(t[::4], w * t[::4], w * t[::4] * 32 / 41)
+    else:
+        rec = emulate_edges(t, w * t, w * t * 32 / 41, edges_per_rev=1000, clock_hz=1e8)
+    fmt = "tdms" if name == "tdms" else "csv"
+    return write_measurement(folder / f"base_{name}.json", rec, rpm_in=1250.0, data_format=fmt)
 
 
 @pytest.fixture(scope="module")
 def base(tmp_path_factory):
     d = tmp_path_factory.mktemp("fuzz")
-    return {fmt: _base_run(d, fmt) for fmt in ("csv", "tdms")}
+    return {name: _base_run(d, name) for name in ("csv", "tdms", "angles")}
 
 
 def _try(path: Path) -> None:
@@ -45,12 +49,13 @@ line_ops = st.lists(st.tuples(st.sampled_from(["delete", "duplicate", "swap", "r
                               st.integers(0, 10_000), st.text(max_size=30)), min_size=1, max_size=6)
 
 
-@settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@pytest.mark.parametrize("kind", ["csv", "angles"])
+@settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(ops=line_ops, truncate=st.one_of(st.none(), st.integers(0, 60_000)),
        flips=st.lists(st.tuples(st.integers(0, 60_000), st.integers(0, 255)), max_size=4))
-def test_csv_mutations_raise_only_measurement_error(base, ops, truncate, flips):
-    src = base["csv"]
-    lines = (src.parent / "base_csv.csv").read_text().splitlines(keepends=True)
+def test_csv_mutations_raise_only_measurement_error(base, kind, ops, truncate, flips):
+    src = base[kind]
+    lines = src.with_suffix(".csv").read_text().splitlines(keepends=True)
     for op, pos, text in ops:
         i = pos % len(lines) if lines else 0
         if not lines:
