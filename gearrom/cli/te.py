@@ -35,6 +35,8 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     r.add_argument("--rpm-tolerance", type=float, default=0.05,
                    help="allowed relative mismatch of rpm_in and the data (default 0.05)")
     r.add_argument("--strict", action="store_true", help="fail on anything that would need a repair")
+    r.add_argument("--edge-interp", choices=("cubic", "linear"), default="cubic",
+                   help="angle between encoder edges (default cubic Hermite)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -43,7 +45,8 @@ def run(args: argparse.Namespace) -> int:
 
     filters = FilterSettings(lowpass_hz=args.lowpass_hz, lowpass_order=args.lowpass_order,
                              highpass_hz=args.highpass_hz, zero_phase=not args.causal, detrend=args.detrend)
-    read = ReadSettings(fs_hz=args.fs_hz, rpm_tolerance=args.rpm_tolerance, strict=args.strict)
+    read = ReadSettings(fs_hz=args.fs_hz, rpm_tolerance=args.rpm_tolerance, strict=args.strict,
+                        edge_interp=args.edge_interp)
     res = process_measurement(args.measurement, config=args.config, read_settings=read,
                               te_settings=TESettings(te_on=args.te_on, filters=filters))
     summary = res.to_json_dict()

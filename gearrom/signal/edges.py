@@ -2,8 +2,8 @@
 
 Edge ``n`` of a channel sits at angle ``n * 2*pi/edges_per_rev`` (plus an unknown offset, taken
 as zero at the first edge). :class:`EdgeStream` takes the edges of one channel chunk by chunk,
-checks them, repairs what can be repaired and emits the angle, linearly interpolated between
-edges, at the grid times ``k / fs_hz``.
+checks them, repairs what can be repaired and emits the angle, interpolated between edges
+(cubic Hermite by default, or linear), at the grid times ``k / fs_hz``.
 
 Checks, against a local reference interval (the median edge interval of blocks of
 ``ReadSettings.block`` edges, i.e. the local speed):
@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass
+from typing import Literal
 
 import numpy as np
 
@@ -58,6 +59,10 @@ class ReadSettings:
         Allowed relative difference between ``rpm_in`` of the metadata and the measured speed.
     strict : bool
         Treat every repair as an error.
+    edge_interp : {"linear", "cubic"}
+        Angle between edges: a cubic Hermite through the edges with centred-difference slopes
+        (default; error O(h^3)), or linear (O(h^2): a TE component with p edges per period on the
+        channel that carries it is attenuated by sinc^2(pi/p) ~ 1 - (2 pi/p)^2/12).
     """
 
     fs_hz: float | None = None
@@ -71,6 +76,7 @@ class ReadSettings:
     max_repairs: int = 1000
     rpm_tolerance: float = 0.05
     strict: bool = False
+    edge_interp: Literal["linear", "cubic"] = "cubic"
 
     def __post_init__(self):
         if self.fs_hz is not None and not self.fs_hz > 0:
@@ -79,6 +85,8 @@ class ReadSettings:
             raise ConfigError(f"need 0 < double_ratio={self.double_ratio} < 1 < gap_ratio={self.gap_ratio}")
         if self.chunk_rows < 16 or self.block < 8:
             raise ConfigError(f"Parameters chunk_rows={self.chunk_rows} (>= 16) / block={self.block} (>= 8)")
+        if self.edge_interp not in ("linear", "cubic"):
+            raise ConfigError(f"Parameter edge_interp={self.edge_interp!r} must be 'linear' or 'cubic'")
 
 
 @dataclass(frozen=True)
@@ -136,6 +144,8 @@ class EdgeStream:
         self._tail_t = np.empty(0)
         self._tail_row = np.empty(0, np.int64)
         self._out: list[np.ndarray] = []
+        self._buf_t = np.empty(0)  # cubic: accepted edges not yet fully emitted (3 kept for slopes)
+        self._buf_c = np.empty(0)
 
     # -- messages ---------------------------------------------------------------------------
     def _where(self, row: int) -> str:
@@ -181,6 +191,8 @@ class EdgeStream:
         """Process what is left. Returns ``(k0, theta)``: grid index of the first sample, angles (rad)."""
         if self._tail_t.size:
             self._process(final=True)
+        if self.s.edge_interp == "cubic" and self._buf_t.size >= 2:
+            self._emit_cubic(self._buf_t[-1])
         if self.first_t is None or self.n_edges < 2:
             raise MeasurementError(f"{self.file}: channel {self.channel!r} has {self.n_edges} edges; "
                                    "at least 2 are needed (missing channel?)")
@@ -287,9 +299,39 @@ class EdgeStream:
                          f"spurious edge removed (interval {d[i]:.3g} s, below {self.s.double_ratio} x local mean)")
 
     def _emit(self, ta: np.ndarray, counts: np.ndarray) -> None:
+        if self.s.edge_interp == "cubic":
+            new = slice(0, None) if self._buf_t.size == 0 else slice(1, None)  # ta[0] is buffered already
+            self._buf_t = np.concatenate([self._buf_t, ta[new]])
+            self._buf_c = np.concatenate([self._buf_c, counts[new].astype(np.float64)])
+            if self._buf_t.size >= 3:
+                self._emit_cubic(self._buf_t[-2])  # the last interval waits for its right slope
+                self._buf_t, self._buf_c = self._buf_t[-3:], self._buf_c[-3:]
+            return
         k_end = math.floor(ta[-1] * self.fs + 1e-9)
         if k_end < self.next_k:
             return
         k = np.arange(self.next_k, k_end + 1)
         self._out.append(np.interp(k / self.fs, ta, counts.astype(np.float64)) * self.dtheta)
+        self.next_k = k_end + 1
+
+    def _emit_cubic(self, t_end: float) -> None:
+        """Cubic Hermite through the buffered edges (centred-difference slopes) up to ``t_end``."""
+        k_end = math.floor(t_end * self.fs + 1e-9)
+        if k_end < self.next_k:
+            return
+        bt, bc = self._buf_t, self._buf_c
+        tg = np.arange(self.next_k, k_end + 1) / self.fs
+        n = bt.size
+        i = np.clip(np.searchsorted(bt, tg, side="right") - 1, 0, n - 2)
+
+        def slope(j):
+            jl, jr = np.maximum(j - 1, 0), np.minimum(j + 1, n - 1)
+            return (bc[jr] - bc[jl]) / (bt[jr] - bt[jl])
+
+        h = bt[i + 1] - bt[i]
+        u = (tg - bt[i]) / h
+        u2, u3 = u * u, u * u * u
+        rel = ((-2 * u3 + 3 * u2) * (bc[i + 1] - bc[i]) + (u3 - 2 * u2 + u) * h * slope(i)
+               + (u3 - u2) * h * slope(i + 1))
+        self._out.append((bc[i] + rel) * self.dtheta)
         self.next_k = k_end + 1
