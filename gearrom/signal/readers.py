@@ -124,7 +124,7 @@ def _iter_csv(meta: MeasurementMeta, chunk_rows: int) -> Iterator[EdgeChunk | An
     line0 = 2  # file line number of the first data row
     try:
         reader = pd.read_csv(path, dtype=dtype, chunksize=chunk_rows, engine="c", skip_blank_lines=False,
-                             quoting=csv.QUOTE_NONE, encoding="utf-8", header=0)
+                             quoting=csv.QUOTE_NONE, encoding="utf-8", header=0, names=cols)
     except Exception as exc:  # noqa: BLE001 - any parser failure becomes a MeasurementError
         raise MeasurementError(f"{path}: cannot parse CSV: {type(exc).__name__}: {exc}") from None
     with reader:

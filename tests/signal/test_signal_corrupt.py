@@ -250,3 +250,10 @@ def test_tdms_missing_channel(tmp_path):
     with TdmsWriter(str(tmp_path / "m.tdms")) as w:
         w.write_segment([ChannelObject("edges", "input", rec.t_input_s)])
     expect_error(path, "m.tdms", "channel 'output' missing")
+
+
+def test_header_whitespace_tolerated(angle_rows, tmp_path):
+    """Blanks around header names are not an error (found by the property test: ' t_s' crashed pandas)."""
+    def blank(lines):
+        lines[0] = " " + lines[0].replace(",", " , ")
+    assert load_angles(_angle_file(angle_rows, tmp_path, blank)).t_s.size > 100
