@@ -140,7 +140,12 @@ def read_meta(path: str | Path) -> MeasurementMeta:
     data = doc["data"]
     if not isinstance(data, str) or not data.strip():
         raise MeasurementError(f"{where}: key 'data' must be a non-empty file name, got {data!r}")
-    data_path = (path.parent / data).resolve()
+    try:
+        if "\x00" in data:
+            raise ValueError("embedded null character")
+        data_path = (path.parent / data).resolve()
+    except (OSError, ValueError, RuntimeError) as exc:
+        raise MeasurementError(f"{where}: key 'data': invalid file name {data!r}: {exc}") from None
     if data_path.suffix.lower() not in (".csv", ".tdms"):
         raise MeasurementError(f"{where}: key 'data': unsupported data file type {data_path.suffix!r} "
                                "(use .csv or .tdms)")

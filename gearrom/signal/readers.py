@@ -56,7 +56,11 @@ def iter_chunks(meta: MeasurementMeta, chunk_rows: int = 2_000_000) -> Iterator[
     MeasurementError
         Missing file, header, column, channel or group; unparsable value. Names file and line.
     """
-    if not meta.data_path.is_file():
+    try:
+        found = meta.data_path.is_file()
+    except OSError as exc:
+        raise MeasurementError(f"{meta.path}: key 'data': cannot access data file: {exc.strerror}") from None
+    if not found:
         raise MeasurementError(f"{meta.path}: data file {meta.data_path} not found (key 'data')")
     if meta.data_format == "tdms":
         yield from _iter_tdms(meta, chunk_rows)

@@ -257,3 +257,12 @@ def test_header_whitespace_tolerated(angle_rows, tmp_path):
     def blank(lines):
         lines[0] = " " + lines[0].replace(",", " , ")
     assert load_angles(_angle_file(angle_rows, tmp_path, blank)).t_s.size > 100
+
+
+@pytest.mark.parametrize("data", ["a\x00.csv", "a" * 5000 + ".csv", "/", ".csv", "run.txt"],
+                         ids=["nul", "long", "root", "suffix-only", "txt"])
+def test_bad_data_names(base_run, tmp_path, data):
+    doc = json.loads(base_run.read_text())
+    doc["data"] = data
+    (tmp_path / "m.json").write_text(json.dumps(doc))
+    expect_error(tmp_path / "m.json", "m.json" if data in ("a\x00.csv", "/", "run.txt") else "", "data")

@@ -140,3 +140,13 @@ def test_base_files_are_valid(base):
     """The unmutated files read fine (so the properties above exercise real edits)."""
     for path in base.values():
         assert load_angles(path, READ).t_s.size > 100
+
+
+@settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(name=st.text(max_size=300))
+def test_random_data_file_names(base, name):
+    doc = json.loads(base["csv"].read_text())
+    doc["data"] = name
+    with tempfile.TemporaryDirectory() as d:
+        (Path(d) / "x.json").write_text(json.dumps(doc))
+        _try(Path(d) / "x.json")
