@@ -92,12 +92,12 @@ def _lookup(tab, x, period):
 
 @numba.njit(cache=True)
 def _rhs(t, y, p, ktab, etab, mper, ex1, ex2, rip):
-    # p: Jm J1 J2 JL kctrl cctrl ks cs kc cc rb1 rb2 cm Omega Tload Tff thm0
+    # p: Jm J1 J2 JL kctrl cctrl ks cs kc cc rb1 rb2 cm Omega Tload Tff thm0 mesh_phase
     thm, th1, th2, thl, wm, w1, w2, wl = y[0], y[1], y[2], y[3], y[4], y[5], y[6], y[7]
     tc = p[4] * (p[13] * t + p[16] - thm) + p[5] * (p[13] - wm) + p[15]
     ts = p[6] * (thm - th1) + p[7] * (wm - w1)
-    k, _ = _lookup(ktab, th1, mper)
-    e0, _ = _lookup(etab, th1, mper)
+    k, _ = _lookup(ktab, th1 + p[17], mper)
+    e0, _ = _lookup(etab, th1 + p[17], mper)
     x1, d1 = _lookup(ex1, th1, 2 * np.pi)
     x2, d2 = _lookup(ex2, th2, 2 * np.pi)
     delta = p[10] * th1 - p[11] * th2
@@ -243,14 +243,15 @@ class TorsionalRig:
         t_ff = run.torque_out_Nm * rb1 / rb2
         th1 = -om * self.warmup_s
         thm = th1 + t_ff / p.k_shaft_in
-        delta0 = ft / np.interp(th1 % (2 * math.pi / z1), np.arange(512) * 2 * math.pi / z1 / 512, k_tab) \
-            + np.interp(th1 % (2 * math.pi / z1), np.arange(512) * 2 * math.pi / z1 / 512, e0)
+        grid = np.arange(512) * 2 * math.pi / z1 / 512
+        ph = (th1 + ch.mesh_phase_rad) % (2 * math.pi / z1)
+        delta0 = ft / np.interp(ph, grid, k_tab) + np.interp(ph, grid, e0)
         th2 = (rb1 * th1 - delta0) / rb2
         thl = th2 - run.torque_out_Nm / p.k_clutch
         w2 = om * rb1 / rb2
         y0 = np.array([thm, th1, th2, thl, om, om, w2, w2])
         pv = np.array([p.J_motor, p.J_in, p.J_out, p.J_load, p.k_ctrl, p.c_ctrl, p.k_shaft_in, cs, p.k_clutch, cc,
-                       rb1, rb2, cm, om, run.torque_out_Nm, t_ff, thm])
+                       rb1, rb2, cm, om, run.torque_out_Nm, t_ff, thm, ch.mesh_phase_rad])
         n_skip = int(round(self.warmup_s / self.h_s))
         n_steps = n_skip + int(math.ceil(run.duration_s / self.h_s))
         out = _integrate(y0, self.h_s, n_steps, n_skip, pv, k_tab, e0, 2 * math.pi / z1, ex1, ex2, rip)

@@ -20,6 +20,8 @@ Conventions of :class:`ModelChanges`
 * ``rig_scale``: multiplicative changes of named rig parameters (``Simulator.tunable()``).
 * ``load_ripple``: ``(relative amplitude, order of the output shaft, phase_rad)`` of the brake
   torque: not a library effect, used to make out-of-library test data.
+* ``mesh_phase_rad``: where the teeth stand at encoder zero: the mesh table is evaluated at
+  ``theta_1 + mesh_phase_rad`` (estimated per run by the diagnosis, never fitted to the residual).
 """
 from __future__ import annotations
 
@@ -71,11 +73,12 @@ class ModelChanges:
     micro: MicroMods | None = None
     rig_scale: tuple[tuple[str, float], ...] = ()
     load_ripple: tuple[float, float, float] | None = None
+    mesh_phase_rad: float = 0.0
 
     @property
     def is_nominal(self) -> bool:
         return (self.kinematic_in is None and self.kinematic_out is None and self.micro is None
-                and not self.rig_scale and self.load_ripple is None)
+                and not self.rig_scale and self.load_ripple is None and self.mesh_phase_rad == 0.0)
 
 
 @dataclass(frozen=True, eq=False)
@@ -171,6 +174,11 @@ class RomSimulator:
             pair = load_config(self.config, check=False).pair
             kw["excitation"] = self.micro_model.excitation(pair, [0.5 * run.torque_out_Nm, run.torque_out_Nm,
                                                                   1.5 * run.torque_out_Nm], ch.micro)
+        if ch.mesh_phase_rad and "mesh_phase_rad" in self._params:
+            kw["mesh_phase_rad"] = ch.mesh_phase_rad
+        elif ch.mesh_phase_rad:
+            raise CalibrationError("gearrom.rom.simulate_run has no 'mesh_phase_rad': the measured mesh phase "
+                                   "cannot be imposed")
         if ch.load_ripple is not None or ch.rig_scale:
             raise CalibrationError("RomSimulator: load ripple and rig-parameter scaling are not wired to the ROM yet")
         res = self._rom.simulate_run(self.config, run.rpm_in, run.torque_out_Nm, run.duration_s, **kw)

@@ -1,0 +1,186 @@
+"""Physical characterization of a residual: order lines, sidebands (AM/PM), peaks, fixed vs tracking.
+
+* :func:`order_table`: amplitudes of the standard lines (orders 1-3 of each shaft, GMF 1-3 and their
+  first sidebands at both shaft orders) by joint least squares on the shaft angles, so that short
+  records (2 output revolutions) and the non-integer ratio of the two shafts are handled.
+* :func:`sideband_modulation`: for each GMF harmonic and shaft, the product of the upper and lower
+  sideband over the carrier squared: ``U L / C^2`` is real positive for amplitude modulation and
+  real negative for phase modulation (``x = C(1 + m cos)`` vs ``C exp(i b cos)``).
+* :func:`spectral_peaks` and :func:`classify_peaks`: lines in the residual spectrum above the
+  noise, grouped across runs as ``fixed_frequency`` (same Hz at different speeds: a resonance) or
+  ``order_tracking`` (same order), ``undetermined`` when one speed cannot tell.
+* :func:`impulsiveness`: crest factor of the synchronous average per revolution of each shaft
+  (a displaced tooth gives an impulsive once-per-rev pattern, runout a smooth one).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy import signal
+
+from gearrom.calibrate.residual import RunData, fit_lines
+
+UM = 1e-6
+
+
+def standard_lines(run: RunData) -> list[tuple[str, float, float]]:
+    """``(label, a, b)``: line ``a theta_in + b theta_out``; orders 1-3 per shaft, GMF 1-3, sidebands +-1."""
+    z1 = run.mesh.z1
+    out = [(f"{q}x f_in", float(q), 0.0) for q in (1, 2, 3)]
+    out += [(f"{q}x f_out", 0.0, float(q)) for q in (1, 2, 3)]
+    for h in (1, 2, 3):
+        out.append((f"{h}xGMF", float(h * z1), 0.0))
+        for sgn in (-1, 1):
+            s = "+" if sgn > 0 else "-"
+            out.append((f"{h}xGMF{s}1x f_in", float(h * z1 + sgn), 0.0))
+            out.append((f"{h}xGMF{s}1x f_out", float(h * z1), float(sgn)))
+    return out
+
+
+def line_order(run: RunData, a: float, b: float) -> float:
+    """Order of a line in input-shaft orders."""
+    return a + b * run.mesh.ratio
+
+
+def order_table(run: RunData, before: np.ndarray, after: np.ndarray) -> list[dict]:
+    """Before/after amplitudes (um) of the standard lines in the TE residuals of one run."""
+    lab = standard_lines(run)
+    lines = np.array([[a, b] for _, a, b in lab])
+    cb = fit_lines(before, run.theta_in_rad, run.theta_out_rad, lines)
+    ca = fit_lines(after, run.theta_in_rad, run.theta_out_rad, lines)
+    return [{"label": name, "order": line_order(run, a, b), "order_out": line_order(run, a, b) / run.mesh.ratio,
+             "before_um": abs(x) / UM, "after_um": abs(y) / UM} for (name, a, b), x, y in zip(lab, cb, ca)]
+
+
+def sideband_modulation(run: RunData, te: np.ndarray, noise_line_m: float) -> list[dict]:
+    """AM/PM classification of the first sidebands of GMF 1-3 at each shaft order in a TE signal."""
+    z1 = run.mesh.z1
+    out = []
+    for h in (1, 2, 3):
+        for shaft, side in (("input", ((h * z1 - 1, 0), (h * z1 + 1, 0))), ("output", ((h * z1, -1), (h * z1, 1)))):
+            lines = np.array([[h * z1, 0], side[0], side[1]], float)
+            c, lo, up = fit_lines(te, run.theta_in_rad, run.theta_out_rad, lines)
+            if abs(c) < 5 * noise_line_m or max(abs(lo), abs(up)) < 5 * noise_line_m:
+                continue
+            r = up * lo / c**2
+            ang = math.degrees(math.atan2(r.imag, r.real))
+            kind = "AM" if abs(ang) < 45 else ("PM" if abs(ang) > 135 else "mixed AM/PM")
+            out.append({"harmonic": h, "shaft": shaft, "carrier_um": abs(c) / UM, "lower_um": abs(lo) / UM,
+                        "upper_um": abs(up) / UM, "modulation": kind, "angle_deg": ang})
+    return out
+
+
+def noise_per_bin(noise_rms_m: float, n: int) -> float:
+    """Amplitude of white noise in one bin of a Hann-windowed, coherent-gain corrected spectrum, m."""
+    return 2 * noise_rms_m * math.sqrt(1.5 / n)
+
+
+def spectral_peaks(x: np.ndarray, fs_hz: float, noise_rms_m: float, snr: float = 6.0,
+                   floor_m: float = 0.0, fmax_hz: float | None = None) -> list[tuple[float, float]]:
+    """Peaks ``(frequency_hz, amplitude_m)`` of a Hann amplitude spectrum above ``snr`` x the noise per bin."""
+    n = x.size
+    w = signal.get_window("hann", n)
+    pad = 8 * n
+    X = np.fft.rfft((x - x.mean()) * w, pad)
+    amp = 2 * np.abs(X) / w.sum()
+    f = np.fft.rfftfreq(pad, 1 / fs_hz)
+    thr = max(snr * noise_per_bin(noise_rms_m, n), floor_m)
+    fmin = 2.0 * fs_hz / n
+    fmax = fmax_hz or 0.4 * fs_hz
+    idx, _ = signal.find_peaks(amp, height=thr, distance=max(1, int(pad / n * 2)))
+    return [(float(f[i]), float(amp[i])) for i in idx if fmin <= f[i] <= fmax]
+
+
+def nearest_integer_order(run: RunData, f_hz: float, tol_orders: float) -> str | None:
+    """Label of an integer order of either shaft (or a GMF harmonic) within ``tol_orders``, else None."""
+    f_in = run.rpm_in / 60
+    o_in = f_hz / f_in
+    o_out = o_in / run.mesh.ratio
+    if abs(o_in - round(o_in)) <= tol_orders and round(o_in) >= 1:
+        q = int(round(o_in))
+        return f"{q // run.mesh.z1}xGMF" if q % run.mesh.z1 == 0 else f"input order {q}"
+    if abs(o_out - round(o_out)) <= tol_orders / run.mesh.ratio and round(o_out) >= 1:
+        return f"output order {int(round(o_out))}"
+    return None
+
+
+def classify_peaks(runs: list[RunData], peaks: list[list[tuple[float, float]]]) -> list[dict]:
+    """Group peaks across runs: fixed_frequency, order_tracking or undetermined (see module docstring)."""
+    out = []
+    used = [set() for _ in runs]
+    for a, (ra, pa) in enumerate(zip(runs, peaks)):
+        fa_in = ra.rpm_in / 60
+        tol_fa = 1.5 / ra.duration_s
+        for i, (f, amp) in enumerate(pa):
+            if i in used[a]:
+                continue
+            used[a].add(i)
+            fixed, track, amps = [], [], [amp]
+            diverse = False
+            for b, (rb, pb) in enumerate(zip(runs, peaks)):
+                if b == a:
+                    continue
+                fb_in = rb.rpm_in / 60
+                tol_f = max(tol_fa, 1.5 / rb.duration_s)
+                if abs(f / fa_in * fb_in - f) <= 2 * tol_f:
+                    continue  # speeds too close for this line
+                diverse = True
+                for j, (g, amp_b) in enumerate(pb):
+                    if j in used[b]:
+                        continue
+                    if abs(g - f) <= tol_f:
+                        fixed.append((b, j, g, amp_b))
+                    elif abs(g / fb_in - f / fa_in) <= tol_f / fb_in:
+                        track.append((b, j, g, amp_b))
+            o_in = f / fa_in
+            if track and len(track) >= len(fixed):
+                kind, members = "order_tracking", track
+            elif fixed:
+                kind, members = "fixed_frequency", fixed
+            else:
+                kind, members = ("undetermined" if not diverse else "single_run_only"), []
+            for b, j, _, amp_b in members:
+                used[b].add(j)
+                amps.append(amp_b)
+            item = {"frequency_hz": f, "order": o_in if kind == "order_tracking" else None,
+                    "order_out": o_in / ra.mesh.ratio if kind == "order_tracking" else None,
+                    "kind": kind, "amplitude_um": max(amps) / UM, "run": ra.name,
+                    "order_at_this_run": o_in, "runs_seen": 1 + len(members),
+                    "integer_order": nearest_integer_order(ra, f, 1.5 / (ra.duration_s * fa_in))}
+            if kind == "undetermined":
+                item["note"] = "seen at one speed only: a run at another speed tells fixed frequency from order"
+            out.append(item)
+    return out
+
+
+def impulsiveness(run: RunData, te: np.ndarray) -> dict:
+    """Crest factor of the per-revolution synchronous average of ``te`` for each shaft (None if < 1 rev)."""
+    out = {}
+    for shaft, th in (("input", run.theta_in_rad), ("output", run.theta_out_rad)):
+        n_rev = int((th[-1] - th[0]) / (2 * math.pi))
+        if n_rev < 1:
+            out[shaft] = None
+            continue
+        grid = th[0] + np.arange(256 * n_rev) * 2 * math.pi / 256
+        avg = np.interp(grid, th, te).reshape(n_rev, 256).mean(axis=0)
+        avg = avg - avg.mean()
+        r = float(np.sqrt(np.mean(avg**2)))
+        out[shaft] = float(np.max(np.abs(avg)) / r) if r > 0 else None
+    return out
+
+
+def dependence(runs: list[RunData], tables: list[list[dict]], labels=("1x f_in", "1x f_out", "1xGMF")) -> list[dict]:
+    """Amplitude of key residual lines against speed and load across runs."""
+    out = []
+    for lab in labels:
+        vals = [(r.rpm_in, r.torque_out_Nm, next(x["before_um"] for x in t if x["label"] == lab))
+                for r, t in zip(runs, tables)]
+        a = [v[2] for v in vals]
+        trend = "constant"
+        if len(vals) > 1 and max(a) > 1.5 * max(min(a), 1e-12):
+            k = int(np.argmax(a))
+            trend = f"varies (largest at {vals[k][0]:.0f} rpm, {vals[k][1]:.0f} N m)"
+        out.append({"line": lab, "runs": [{"rpm_in": v[0], "torque_out_Nm": v[1], "amplitude_um": v[2]} for v in vals],
+                    "trend": trend})
+    return out

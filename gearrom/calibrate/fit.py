@@ -1,0 +1,430 @@
+"""Candidate effects: their predicted signatures, bounded least-squares fits, ranking and selection.
+
+Every candidate (library effect x target) predicts the three compared signals (te, u_in, u_out)
+of every run from its parameters, through the run's model sensitivities (:mod:`.model`):
+
+* ``eccentricity``: ``Re(H(1) a e^{i phi} e^{i theta})`` of its shaft (te and both channels move);
+* ``pitch_error``: one displaced tooth, the load-share window of the nominal mesh as the kinematic
+  error pattern, all shaft orders through ``H(q)``; the tooth index is searched;
+* ``encoder_eccentricity``: ``a cos(theta + phi)`` in te and in its own channel only;
+* ``tip_relief`` / ``lead_crowning`` / ``helix_slope``: the STE change at the GMF harmonics from the
+  micro-geometry model, through ``H(h z1)``; the mesh phase is the estimated one, or free (one
+  value shared by the runs) when the nominal model had nothing to align;
+* ``torsional_mode``: re-simulation with one rig parameter scaled.
+
+The stacked, weighted residual of all runs (te weight 1, channels ``channel_weight``) is fitted
+by each candidate alone (bounded least squares: :func:`scipy.optimize.lsq_linear` for the linear
+ones, bounded scalar search for the others). Forward selection adds the candidate that removes the
+most residual energy while it is significant (``kappa`` noise variances per parameter and at least
+``min_fraction`` of what is left); a candidate whose explained energy falls short of the best by
+less than ``max(2 kappa noise variances per parameter, ambiguity x best)`` is reported as not
+separable from it by these data.
+"""
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import signal
+from scipy.optimize import lsq_linear, minimize_scalar
+
+from gearrom.calibrate.effects import LIBRARY, amp_phase, load_share_window
+from gearrom.calibrate.microgeom import MicroMods
+from gearrom.calibrate.model import N_TABLE, RunModel
+from gearrom.calibrate.residual import map_to_run
+from gearrom.calibrate.simulator import ModelChanges
+
+log = logging.getLogger(__name__)
+UM = 1e-6
+
+
+@dataclass(frozen=True)
+class FitSettings:
+    """Settings of ranking and selection (see module docstring)."""
+
+    channel_weight: float = 0.5
+    max_effects: int = 3
+    min_fraction: float = 0.15
+    kappa: float = 25.0
+    ambiguity: float = 0.01
+    shared_shaft_phase: bool = True
+    rig_parameters: tuple[str, ...] = ("k_clutch", "k_shaft_in", "mesh_stiffness")
+    candidates: tuple[str, ...] | None = None
+
+
+@dataclass(eq=False)
+class Trial:
+    """A candidate fitted alone on a residual."""
+
+    cand: Candidate
+    x: np.ndarray
+    contrib: list  # per run (3, n)
+    dss: float
+    n_par: int
+    info: dict = field(default_factory=dict)
+
+    @property
+    def key(self) -> tuple[str, str]:
+        return self.cand.name, self.cand.target
+
+
+class Context:
+    """Runs, weights, stacking and caches shared by the candidates."""
+
+    def __init__(self, models: list[RunModel], sim, settings: FitSettings, pair, micro_model, micro_nominal: MicroMods):
+        self.models = models
+        self.sim = sim
+        self.s = settings
+        self.pair = pair
+        self.micro_model = micro_model
+        self.micro_nominal = micro_nominal
+        self.w = np.array([1.0, settings.channel_weight, settings.channel_weight])
+        self._ste: dict = {}
+        self.noise_var = float(np.mean([m.noise_m ** 2 for m in models]))
+
+    def stack(self, per_run: list) -> np.ndarray:
+        return np.concatenate([(self.w[:, None] * a).ravel() for a in per_run])
+
+    def ste_lines(self, torque: float, mods: MicroMods) -> np.ndarray:
+        key = (round(torque, 6), mods)
+        if key not in self._ste:
+            ex = self.micro_model.excitation(self.pair, [torque], mods)
+            self._ste[key] = ex.harmonics(torque, 3).ste[1:]
+        return self._ste[key]
+
+
+class Candidate:
+    """A (library effect, target) pair; subclasses implement :meth:`fit`."""
+
+    def __init__(self, name: str, target: str):
+        self.name, self.target = name, target
+        self.spec = LIBRARY[name]
+
+    @property
+    def bound(self) -> float:
+        return self.spec.bound.get(self.target, 0.0)
+
+    def fit(self, ctx: Context, R: np.ndarray) -> Trial | None:  # pragma: no cover
+        raise NotImplementedError
+
+    def report(self, x: np.ndarray, info: dict) -> dict:  # pragma: no cover
+        raise NotImplementedError
+
+    def changes(self, x: np.ndarray, info: dict, ctx: Context) -> dict:
+        """Keyword changes for the verification simulation (kinematic tables, micro, rig scale)."""
+        return {}
+
+    def measurement_term(self, x: np.ndarray, info: dict, ctx: Context) -> list | None:
+        """Measurement-only contribution per run (encoder errors), else None."""
+        return None
+
+    def __repr__(self) -> str:
+        return f"{self.name}[{self.target}]"
+
+
+def _linear_fit(cand, ctx: Context, cols: list, R: np.ndarray, lo, hi, info=None) -> Trial:
+    """Bounded linear least squares of stacked columns (each a per-run list of (3, n) arrays)."""
+    A = np.column_stack([ctx.stack(c) for c in cols])
+    res = lsq_linear(A, R, bounds=(lo, hi))
+    x = res.x
+    contrib_stacked = A @ x
+    dss = float(R @ R - (R - contrib_stacked) @ (R - contrib_stacked))
+    per_run = [sum(x[j] * cols[j][r] for j in range(len(cols))) for r in range(len(ctx.models))]
+    return Trial(cand, x, per_run, dss, len(x), dict(info or {}))
+
+
+def _dt(a: np.ndarray, axis: int = -1) -> np.ndarray:
+    """The linear detrend every measured signal went through (offset and slope over the record)."""
+    return signal.detrend(a, axis=axis)
+
+
+def _shaft(target: str) -> str:
+    return "input" if target.startswith("input") else "output"
+
+
+def _theta(m: RunModel, shaft: str) -> np.ndarray:
+    return m.run.theta_in_rad if shaft == "input" else m.run.theta_out_rad
+
+
+class OncePerRev(Candidate):
+    """eccentricity (through the drivetrain) or encoder_eccentricity (measurement only)."""
+
+    def _cols(self, ctx: Context) -> list:
+        shaft = _shaft(self.target)
+        shared = ctx.s.shared_shaft_phase
+        nr = len(ctx.models)
+        cols = []
+        for basis in (1.0, 1j):
+            per = []
+            for m in ctx.models:
+                if self.name == "eccentricity":
+                    per.append(_dt(m.response(shaft, {1: basis * UM})))
+                else:
+                    v = _dt((basis * UM * np.exp(1j * _theta(m, shaft))).real)
+                    z = np.zeros_like(v)
+                    per.append(np.vstack([v, v, z]) if shaft == "input" else np.vstack([v, z, -v]))
+            if shared:
+                cols.append(per)
+            else:
+                for r in range(nr):
+                    cols.append([p if i == r else np.zeros_like(p) for i, p in enumerate(per)])
+        if not shared:  # reorder to (cos_r, sin_r) pairs
+            cols = [c for r in range(nr) for c in (cols[r], cols[nr + r])]
+        return cols
+
+    def fit(self, ctx, R):
+        cols = self._cols(ctx)
+        b = self.bound
+        return _linear_fit(self, ctx, cols, R, -b, b)
+
+    def _amp_phase(self, x):
+        pairs = [amp_phase(x[i], x[i + 1]) for i in range(0, len(x), 2)]
+        a = float(np.mean([p[0] for p in pairs]))
+        return a, pairs[0][1], pairs
+
+    def report(self, x, info):
+        a, ph, pairs = self._amp_phase(x)
+        out = {"amplitude_um": a, "phase_deg": ph}
+        if len(pairs) > 1:
+            out["phase_deg_per_run"] = [p[1] for p in pairs]
+        return out
+
+    def changes(self, x, info, ctx):
+        if self.name != "eccentricity":
+            return {}
+        a, ph, _ = self._amp_phase(x)
+        th = np.arange(N_TABLE) * 2 * math.pi / N_TABLE
+        tab = a * UM * np.cos(th + math.radians(ph))
+        return {"kinematic_in" if _shaft(self.target) == "input" else "kinematic_out": tab}
+
+    def measurement_term(self, x, info, ctx):
+        if self.name != "encoder_eccentricity":
+            return None
+        cols = self._cols(ctx)
+        return [sum(x[j] * cols[j][r] for j in range(len(cols))) for r in range(len(ctx.models))]
+
+
+class PitchError(Candidate):
+    """One displaced tooth of a gear; the tooth index is searched."""
+
+    def _window(self, ctx: Context, torque: float) -> tuple[np.ndarray, int]:
+        ex = ctx.micro_model.excitation(ctx.pair, [torque], ctx.micro_nominal)
+        z = ctx.pair.z[0 if self.target == "input_gear" else 1]
+        return load_share_window(ex.load_share[0], N_TABLE, z), z
+
+    def _all_cols(self, ctx: Context) -> tuple[list, int]:
+        shaft = _shaft(self.target)
+        per_run = []
+        z = None
+        for m in ctx.models:
+            w, z = self._window(ctx, m.run.torque_out_Nm)
+            E = 2 * np.fft.rfft(w) / w.size
+            orders, H = m.H[shaft]
+            G = H * E[orders][None, :] * UM  # (3, Q)
+            th = _theta(m, shaft)
+            B = np.exp(1j * np.outer(th, orders))  # (n, Q)
+            D = np.exp(-1j * np.outer(orders, 2 * np.pi * np.arange(z) / z))  # (Q, z)
+            per_run.append(_dt(np.stack([(B @ (G[k][:, None] * D)).real for k in range(3)]), axis=1))  # (3, n, z)
+        return per_run, z
+
+    def fit(self, ctx, R):
+        per_run, z = self._all_cols(ctx)
+        A = np.stack([ctx.stack([p[:, :, k] for p in per_run]) for k in range(z)], axis=1)
+        num, den = A.T @ R, np.einsum("ij,ij->j", A, A)
+        x = np.clip(num / np.maximum(den, 1e-300), -self.bound, self.bound)
+        gain = 2 * x * num - x * x * den
+        k = int(np.argmax(gain))
+        contrib = [x[k] * p[:, :, k] for p in per_run]
+        return Trial(self, np.array([x[k]]), contrib, float(gain[k]), 2, {"tooth_index": k, "z": z,
+                                                                            "window": per_run})
+
+    def report(self, x, info):
+        return {"tooth_index": int(info["tooth_index"]), "deviation_um": float(x[0])}
+
+    def changes(self, x, info, ctx):
+        w, z = self._window(ctx, ctx.models[0].run.torque_out_Nm)
+        tab = float(x[0]) * UM * np.roll(w, int(round(info["tooth_index"] * N_TABLE / z)))
+        return {"kinematic_in" if _shaft(self.target) == "input" else "kinematic_out": tab - tab.mean()}
+
+
+class Micro(Candidate):
+    """tip_relief / lead_crowning / helix_slope through the STE change at the GMF harmonics."""
+
+    def _mods(self, ctx: Context, value_um: float) -> MicroMods:
+        base = ctx.micro_nominal
+        v = value_um * UM
+        if self.name == "tip_relief":
+            tr = list(base.tip_relief)
+            i = 0 if self.target == "input_gear" else 1
+            tr[i] = tr[i] + v
+            return MicroMods(tuple(tr), base.tip_relief_start_diameter, base.lead_crowning, base.helix_slope)
+        if self.name == "lead_crowning":
+            return MicroMods(base.tip_relief, base.tip_relief_start_diameter, base.lead_crowning + v, base.helix_slope)
+        return MicroMods(base.tip_relief, base.tip_relief_start_diameter, base.lead_crowning, base.helix_slope + v)
+
+    def _lo(self):
+        return -self.bound if self.name == "helix_slope" else 0.0
+
+    def _basis(self, ctx: Context):
+        """Per run: real columns (Re V_h, -Im V_h) for h = 1..3 stacked, V_h = H(h z1) e^{i h z1 theta}."""
+        blocks = []
+        for m in ctx.models:
+            z1 = m.run.mesh.z1
+            orders, H = m.H["input"]
+            idx = {int(q): j for j, q in enumerate(orders)}
+            cols = []
+            for h in range(1, 4):
+                j = idx.get(h * z1)
+                V = (np.zeros((3, m.run.t_s.size), complex) if j is None
+                     else H[:, j][:, None] * np.exp(1j * h * z1 * m.run.theta_in_rad)[None, :])
+                cols.append(V)
+            blocks.append(cols)
+        return blocks
+
+    def _contrib(self, ctx, blocks, value, psi_free):
+        out = []
+        for m, cols in zip(ctx.models, blocks):
+            d = ctx.ste_lines(m.run.torque_out_Nm, self._mods(ctx, value)) - ctx.ste_lines(m.run.torque_out_Nm,
+                                                                                          ctx.micro_nominal)
+            psi = m.psi if psi_free is None else psi_free
+            z1 = m.run.mesh.z1
+            g = d * np.exp(1j * np.arange(1, 4) * z1 * psi)
+            out.append(_dt(sum((g[h] * cols[h]).real for h in range(3))))
+        return out
+
+    def fit(self, ctx, R):
+        blocks = self._basis(ctx)
+        free = not all(m.psi_identifiable for m in ctx.models)
+        z1 = ctx.models[0].run.mesh.z1
+        psis = np.linspace(0, 2 * math.pi / z1, 49)[:-1] if free else [None]
+        lo, hi = self._lo(), self.bound
+        # contributions are linear in the complex line coefficients g_h: precompute the Gram system
+        nr = len(ctx.models)
+        cols = []
+        for r, bl in enumerate(blocks):
+            for part in ("re", "im"):
+                for h in range(3):
+                    per = [np.zeros((3, m.run.t_s.size)) for m in ctx.models]
+                    per[r] = _dt(bl[h].real if part == "re" else -bl[h].imag)
+                    cols.append(ctx.stack(per))
+        Phi = np.column_stack(cols)
+        G, b = Phi.T @ Phi, Phi.T @ R
+        h = np.arange(1, 4)
+
+        def coeffs(v, psi):
+            c = []
+            for m in ctx.models:
+                d = ctx.ste_lines(m.run.torque_out_Nm, self._mods(ctx, v)) - ctx.ste_lines(m.run.torque_out_Nm,
+                                                                                          ctx.micro_nominal)
+                g = d * np.exp(1j * h * z1 * (m.psi if psi is None else psi))
+                c.extend([*g.real, *g.imag])
+            return np.array(c)
+
+        def dss_of(v, psi):
+            c = coeffs(v, psi)
+            return float(2 * c @ b - c @ G @ c)
+
+        grid = np.linspace(lo, hi, 17)
+        best = (-np.inf, 0.0, None)
+        for v in grid:
+            for psi in psis:
+                d = dss_of(v, psi)
+                if d > best[0]:
+                    best = (d, v, psi)
+        _, v0, psi0 = best
+        step = (hi - lo) / 16
+        r = minimize_scalar(lambda v: -dss_of(v, psi0), bounds=(max(lo, v0 - step), min(hi, v0 + step)),
+                            method="bounded", options={"xatol": 1e-3 * (hi - lo)})
+        v = float(r.x) if -r.fun > best[0] else v0
+        d = dss_of(v, psi0)
+        contrib = self._contrib(ctx, blocks, v, psi0)
+        assert nr == len(contrib)
+        return Trial(self, np.array([v]), contrib, d, 2 if free else 1, {"psi_rad": psi0})
+
+    def report(self, x, info):
+        out = {"amount_um": float(x[0])}
+        if self.name == "tip_relief":
+            i = 0 if self.target == "input_gear" else 1
+            return out
+        return out
+
+    def changes(self, x, info, ctx):
+        return {"micro": self._mods(ctx, float(x[0]))}
+
+
+class RigMode(Candidate):
+    """torsional_mode: one rig parameter scaled, by re-simulation."""
+
+    def __init__(self, param: str):
+        super().__init__("torsional_mode", "")
+        self.param = param
+
+    def __repr__(self):
+        return f"torsional_mode[{self.param}]"
+
+    def _contrib(self, ctx: Context, scale: float) -> list:
+        out = []
+        for m in ctx.models:
+            h = ctx.sim.simulate(m.cond, ModelChanges(rig_scale=((self.param, scale),), mesh_phase_rad=m.psi))
+            out.append(map_to_run(h, m.run) - m.nominal)
+        return out
+
+    def fit(self, ctx, R):
+        cache = {}
+
+        def dss(logs):
+            s = round(math.exp(logs), 6)
+            if s not in cache:
+                c = self._contrib(ctx, s)
+                v = ctx.stack(c)
+                cache[s] = (float(2 * v @ R - v @ v), c)
+            return cache[s][0]
+
+        grid = np.linspace(math.log(0.4), math.log(2.5), 9)
+        vals = [dss(g) for g in grid]
+        j = int(np.argmax(vals))
+        lo, hi = grid[max(j - 1, 0)], grid[min(j + 1, grid.size - 1)]
+        r = minimize_scalar(lambda g: -dss(g), bounds=(lo, hi), method="bounded", options={"xatol": 0.005})
+        g = float(r.x) if -r.fun > vals[j] else float(grid[j])
+        s = round(math.exp(g), 6)
+        d = dss(g)
+        return Trial(self, np.array([s]), cache[s][1], d, 1, {"parameter": self.param})
+
+    def report(self, x, info):
+        s = float(x[0])
+        out = {"parameter": self.param, "scale": s}
+        modes0 = getattr(self.sim_ref, "modes_hz", lambda *_: [])() if hasattr(self, "sim_ref") else []
+        modes1 = self.sim_ref.modes_hz(((self.param, s),)) if modes0 else []
+        if modes0 and modes1 and len(modes0) == len(modes1):
+            j = int(np.argmax([abs(b[0] / a[0] - 1) for a, b in zip(modes0, modes1)]))
+            out.update(frequency_hz=modes1[j][0], damping_ratio=modes1[j][1], nominal_frequency_hz=modes0[j][0])
+        return out
+
+    def changes(self, x, info, ctx):
+        return {"rig_scale": ((self.param, float(x[0])),)}
+
+
+def make_candidates(ctx: Context) -> list[Candidate]:
+    """All candidates allowed by the settings and the simulator."""
+    names = ctx.s.candidates or tuple(LIBRARY)
+    out: list[Candidate] = []
+    for name in names:
+        spec = LIBRARY[name]
+        if spec.kind == "rig":
+            tun = ctx.sim.tunable() if hasattr(ctx.sim, "tunable") else {}
+            for p in ctx.s.rig_parameters:
+                if p in tun:
+                    c = RigMode(p)
+                    c.sim_ref = ctx.sim
+                    out.append(c)
+            continue
+        for t in spec.targets:
+            if name in ("eccentricity", "encoder_eccentricity"):
+                out.append(OncePerRev(name, t))
+            elif name == "pitch_error":
+                out.append(PitchError(name, t))
+            else:
+                out.append(Micro(name, t))
+    return out

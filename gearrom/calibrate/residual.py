@@ -1,0 +1,242 @@
+"""Runs, model-vs-measurement mapping, residuals and order-line regression.
+
+A run is read with the signal pipeline (:func:`gearrom.signal.process_measurement`: edges ->
+angles -> TE with the linear detrend) and kept on a working grid (FIR decimation to about
+``8 x GMF``, at least 16 kHz). Three signals are compared, all along the transverse line of
+action in m:
+
+* ``te``: the TE, ``r_b1 theta_1 - r_b2 theta_2``, detrended (the quantity the error is reported on);
+* ``u_in``, ``u_out``: each channel's own angle fluctuation ``r_b theta`` about uniform rotation.
+  They tell a real motion (the drivetrain moves: gear errors) from a measurement error of one
+  encoder (only that channel sees it).
+
+A simulated run is mapped onto a measured run *by input-shaft angle* (the model value at the
+sample where the simulated input angle equals the measured one), low-passed like the
+measurement, and detrended over the same record, so both go through the same processing.
+
+Angle references: each channel's angle is zero at its first edge. The encoder offsets that matter
+are estimated, not fitted: the constant TE offset and slope are removed by the detrend, and the
+mesh phase (where the teeth are at encoder zero) by :func:`estimate_mesh_phase` from the nominal
+model's own GMF lines only.
+"""
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import scipy.linalg
+from scipy import signal
+
+from gearrom.calibrate.simulator import SimHistory
+from gearrom.errors import CalibrationError
+from gearrom.signal import GearMeshInfo, ReadSettings, TESettings, process_measurement
+
+log = logging.getLogger(__name__)
+
+SIGNALS = ("te", "u_in", "u_out")
+
+
+@dataclass(frozen=True, eq=False)
+class RunData:
+    """One measured run on the working grid.
+
+    Attributes
+    ----------
+    name : str
+        Measurement file.
+    rpm_in, rpm_in_nominal, torque_out_Nm : float
+        Measured and nominal input speed (rpm), load torque (N m).
+    t_s, theta_in_rad, theta_out_rad : ndarray
+        Working grid and channel angles (zero at each channel's first edge).
+    y : ndarray, shape (3, n)
+        ``te``, ``u_in``, ``u_out``, m (see module docstring).
+    fs_hz : float
+        Working rate, Hz.
+    mesh : GearMeshInfo
+    repairs : tuple of dict
+    """
+
+    name: str
+    rpm_in: float
+    rpm_in_nominal: float
+    torque_out_Nm: float
+    t_s: np.ndarray
+    theta_in_rad: np.ndarray
+    theta_out_rad: np.ndarray
+    y: np.ndarray
+    fs_hz: float
+    mesh: GearMeshInfo
+    repairs: tuple = ()
+    info: dict = field(default_factory=dict)
+
+    @property
+    def gmf_hz(self) -> float:
+        return self.mesh.z1 * self.rpm_in / 60.0
+
+    @property
+    def duration_s(self) -> float:
+        return float(self.t_s[-1] - self.t_s[0])
+
+    @property
+    def revs_out(self) -> float:
+        return float(self.theta_out_rad[-1] - self.theta_out_rad[0]) / (2 * math.pi)
+
+
+def _decimate(x: np.ndarray, q: int) -> np.ndarray:
+    out = x
+    while q > 1:
+        step = next(s for s in (10, 8, 6, 5, 4, 3, 2, q) if q % s == 0)
+        out = signal.decimate(out, step, ftype="fir", zero_phase=True)
+        q //= step
+    return out
+
+
+def working_factor(fs_hz: float, gmf_hz: float) -> int:
+    """Decimation factor to the working rate (about 8 x GMF, at least 16 kHz)."""
+    target = max(16e3, 8.0 * gmf_hz)
+    return max(1, int(fs_hz // target))
+
+
+def load_run(path: str | Path, mesh: GearMeshInfo, torque_out_Nm: float | None = None,
+             read_settings: ReadSettings | None = None) -> RunData:
+    """Read a measurement into a :class:`RunData` (signal pipeline, then working grid).
+
+    Parameters
+    ----------
+    path : str or Path
+        ``gearrom.measurement/1`` JSON.
+    mesh : GearMeshInfo
+    torque_out_Nm : float, optional
+        Load torque when the file does not state ``torque_out_Nm``.
+    read_settings : ReadSettings, optional
+
+    Raises
+    ------
+    CalibrationError
+        No load torque known, or the record is shorter than one output revolution.
+    """
+    res = process_measurement(path, mesh, read_settings=read_settings, te_settings=TESettings())
+    torque = res.torque_out_Nm if res.torque_out_Nm is not None else torque_out_Nm
+    if torque is None:
+        raise CalibrationError(f"{path}: 'torque_out_Nm' is missing in the measurement and was not given "
+                               "(--torque-out-Nm)")
+    q = working_factor(res.fs_hz, res.gmf_hz)
+    th1, th2 = res.theta_in_rad, res.theta_out_rad
+    u1 = mesh.rb1_m * signal.detrend(th1)
+    u2 = mesh.rb2_m * signal.detrend(th2)
+    y = np.vstack([_decimate(v, q) for v in (res.te_m, u1, u2)])
+    n = y.shape[1]
+    th1d, th2d, td = th1[::q][:n], th2[::q][:n], res.t_s[::q][:n]
+    y = np.vstack([signal.detrend(v) for v in y])
+    run = RunData(name=str(path), rpm_in=float(res.rpm_in), rpm_in_nominal=float(res.rpm_in_nominal),
+                  torque_out_Nm=float(torque), t_s=td - td[0], theta_in_rad=th1d, theta_out_rad=th2d, y=y,
+                  fs_hz=res.fs_hz / q, mesh=mesh, repairs=tuple(res.repairs))
+    if run.revs_out < 1.0:
+        raise CalibrationError(f"{path}: the record holds {run.revs_out:.2f} output revolutions; the diagnosis "
+                               "needs at least 1 (2 recommended)")
+    return run
+
+
+def sim_signals(hist: SimHistory, mesh: GearMeshInfo) -> tuple[np.ndarray, np.ndarray]:
+    """``(theta_in, [te, u_in, u_out])`` of a simulated history, raw (trend removed per channel)."""
+    th1, th2 = hist.theta_in_rad, hist.theta_out_rad
+    te = mesh.rb1_m * th1 - mesh.rb2_m * th2
+    return th1, np.vstack([te, mesh.rb1_m * signal.detrend(th1), mesh.rb2_m * signal.detrend(th2)])
+
+
+def map_to_run(hist: SimHistory, run: RunData) -> np.ndarray:
+    """Simulated ``te, u_in, u_out`` at the run's samples, matched by input-shaft angle, same processing.
+
+    Raises
+    ------
+    CalibrationError
+        The simulated record does not cover the measured input-angle span.
+    """
+    th_s, ys = sim_signals(hist, run.mesh)
+    fs_sim = 1.0 / float(np.median(np.diff(hist.t_s)))
+    fc = 0.4 * run.fs_hz
+    if fc < 0.5 * fs_sim * 0.95:
+        sos = signal.butter(8, fc, fs=fs_sim, output="sos")
+        ys = signal.sosfiltfilt(sos, ys, axis=1)
+    th_m = run.theta_in_rad
+    if th_s[0] > th_m[0] + 1e-3 or th_s[-1] < th_m[-1]:
+        raise CalibrationError(f"simulated run covers input angle {th_s[0]:.3f}..{th_s[-1]:.3f} rad, the "
+                               f"measurement {run.name} needs {th_m[0]:.3f}..{th_m[-1]:.3f} rad")
+    out = np.vstack([np.interp(th_m, th_s, v) for v in ys])
+    return signal.detrend(out, axis=1)
+
+
+# ------------------------------------------------------------------ order lines
+def line_design(theta_in: np.ndarray, theta_out: np.ndarray, lines: np.ndarray) -> np.ndarray:
+    """Columns ``cos(phi), -sin(phi)`` with ``phi = a theta_in + b theta_out`` for each line ``(a, b)``."""
+    lines = np.atleast_2d(np.asarray(lines, float))
+    ph = np.outer(theta_in, lines[:, 0]) + np.outer(theta_out, lines[:, 1])
+    return np.hstack([np.cos(ph), -np.sin(ph)])
+
+
+def fit_lines(y: np.ndarray, theta_in: np.ndarray, theta_out: np.ndarray, lines) -> np.ndarray:
+    """Complex amplitudes ``c`` of ``y ~ Re(sum c exp(i phi))`` by joint least squares over the lines.
+
+    ``y`` may be 1-D or (k, n) (k signals at once; the result is then (k, n_lines)).
+    """
+    A = line_design(theta_in, theta_out, lines)
+    Y = np.atleast_2d(y).T
+    x = scipy.linalg.lstsq(A, Y, lapack_driver="gelsy", cond=1e-10)[0]
+    L = A.shape[1] // 2
+    c = (x[:L] + 1j * x[L:]).T
+    return c[0] if np.ndim(y) == 1 else c
+
+
+def eval_lines(c: np.ndarray, theta_in: np.ndarray, theta_out: np.ndarray, lines) -> np.ndarray:
+    """``Re(sum c exp(i phi))`` at the given angles."""
+    A = line_design(theta_in, theta_out, lines)
+    return A @ np.concatenate([c.real, c.imag])
+
+
+def mesh_lines(z1: int, n: int = 3) -> np.ndarray:
+    """Lines of the GMF harmonics 1..n (orders of the input shaft)."""
+    return np.array([[h * z1, 0.0] for h in range(1, n + 1)])
+
+
+def estimate_mesh_phase(meas: np.ndarray, model: np.ndarray, z1: int, noise_um: float) -> tuple[float, bool]:
+    """Mesh phase psi (input angle, rad) aligning the model's GMF lines to the measured ones.
+
+    ``model_h exp(i h z1 psi) ~ meas_h`` in least squares over the harmonics h; only the nominal
+    model's own GMF content is used, so no residual is fitted away. Returns ``(psi, identifiable)``;
+    psi = 0 when the model's GMF lines are below ``3 x noise`` (nothing to align) or explain less than
+    a third of the measured GMF lines (the alignment would then follow an unmodelled effect).
+    """
+    sm, sd = float(np.sum(np.abs(model))), float(np.sum(np.abs(meas)))
+    if sm < 3 * noise_um * 1e-6 * model.size or sm < sd / 3:
+        return 0.0, False
+    period = 2 * math.pi / z1
+    psi = np.linspace(0, period, 721)[:-1]
+    h = np.arange(1, model.size + 1)
+    rot = np.exp(1j * np.outer(psi, h * z1))
+    cost = np.sum(np.abs(meas[None, :] - model[None, :] * rot) ** 2, axis=1)
+    return float(psi[int(np.argmin(cost))]), True
+
+
+def noise_rms(x: np.ndarray, fs_hz: float) -> float:
+    """Robust rms of the broadband noise in ``x`` from the median periodogram.
+
+    A Blackman-Harris window (sidelobes below -90 dB) keeps the leakage of strong lines out of the
+    band 0.05..0.35 fs used, and the median ignores the lines themselves:
+    ``E|X_k|^2 = sigma^2 sum(w^2)`` and the median of an exponential variable is ``ln 2`` times its mean.
+    """
+    x = np.asarray(x, float) - np.mean(x)
+    w = signal.get_window("blackmanharris", x.size)
+    X = np.fft.rfft(x * w)
+    f = np.fft.rfftfreq(x.size, 1 / fs_hz)
+    band = (f > 0.05 * fs_hz) & (f < 0.35 * fs_hz)
+    if band.sum() < 8:
+        band = f > 0
+    p = np.abs(X[band]) ** 2
+    return float(math.sqrt(np.median(p) / (np.sum(w**2) * math.log(2))))
+
+
+def rms(x: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(np.square(x))))

@@ -1,0 +1,147 @@
+"""Forward selection of effects, joint refit, ambiguity statements, and the verification re-simulation."""
+from __future__ import annotations
+
+import logging
+import math
+
+import numpy as np
+
+from gearrom.calibrate.fit import Context, Micro, Trial
+from gearrom.calibrate.microgeom import MicroMods
+from gearrom.calibrate.residual import map_to_run
+from gearrom.calibrate.simulator import ModelChanges
+
+log = logging.getLogger(__name__)
+
+SUGGEST = {
+    frozenset({"eccentricity", "encoder_eccentricity"}):
+        "rotate the encoder disc on its shaft (e.g. by 90 deg) and repeat a run: an encoder error moves with the "
+        "encoder, gear runout stays; or run where that shaft's order 1 meets the first torsional mode, where "
+        "runout is dynamically amplified and an encoder error is not",
+    frozenset({"tip_relief"}):
+        "repeat at a second load (e.g. half and double torque): tip relief of the driving and driven gear changes "
+        "the GMF harmonics differently with load",
+    frozenset({"pitch_error"}):
+        "a longer record (a whole hunting-tooth period) separates the two gears' revolution patterns",
+    frozenset({"torsional_mode"}):
+        "runs at more speeds, so that GMF harmonics and shaft orders pass the mode at different frequencies, "
+        "or an impact test of the rig",
+}
+
+
+def suggestion(a: tuple[str, str], b: tuple[str, str]) -> str:
+    """What extra run would separate candidates ``a`` and ``b`` (names, targets)."""
+    key = frozenset({a[0], b[0]})
+    if key in SUGGEST:
+        return SUGGEST[key]
+    if a[0] == b[0] and frozenset({a[0]}) in SUGGEST:
+        return SUGGEST[frozenset({a[0]})]
+    return "a run at a clearly different speed and one at a different load: the two effects predict different " \
+           "speed and load dependence"
+
+
+def select_effects(ctx: Context, candidates: list, D: list[np.ndarray]) -> tuple[list[Trial], list[dict]]:
+    """Forward selection on the residual ``D`` (per run (3, n): measured minus nominal).
+
+    Returns
+    -------
+    accepted : list of Trial
+        Jointly refitted effects, in the order they were selected.
+    steps : list of dict
+        Per step: residual energy, threshold, the ranking (candidate, explained share) and rivals.
+    """
+    s = ctx.s
+    R0 = ctx.stack(D)
+    accepted: list[Trial] = []
+    steps: list[dict] = []
+    for _ in range(s.max_effects):
+        R = R0 - sum((ctx.stack(t.contrib) for t in accepted), np.zeros_like(R0))
+        ss = float(R @ R)
+        done = {t.key for t in accepted}
+        trials = []
+        for c in candidates:
+            if (c.name, c.target) in done or (c.name == "torsional_mode" and any(k[0] == "torsional_mode" for k in done)):
+                continue
+            try:
+                t = c.fit(ctx, R)
+            except Exception as exc:  # a candidate that cannot be evaluated must not stop the diagnosis
+                log.warning("candidate %r could not be fitted: %s", c, exc)
+                continue
+            if t is not None:
+                trials.append(t)
+        if not trials:
+            break
+        trials.sort(key=lambda t: -t.dss)
+        best = trials[0]
+        thresh = max(s.kappa * ctx.noise_var * best.n_par, s.min_fraction * ss)
+        step = {"residual_energy": ss, "threshold": thresh,
+                "ranking": [{"candidate": repr(t.cand), "effect": t.cand.name, "target": t.cand.target,
+                             "explained_share": t.dss / ss if ss > 0 else 0.0} for t in trials[:6]]}
+        steps.append(step)
+        if best.dss < thresh:
+            step["accepted"] = None
+            break
+        margin = max(2 * s.kappa * ctx.noise_var * best.n_par, s.ambiguity * best.dss)
+        rivals = [t for t in trials[1:] if best.dss - t.dss < margin and t.key != best.key]
+        best.info["rivals"] = [{"effect": t.cand.name, "target": t.cand.target or None,
+                                "explained_share": t.dss / ss, "suggested_run": suggestion(best.key, t.key)}
+                               for t in rivals]
+        best.info["explained_share"] = best.dss / ss
+        best.info["runner_up"] = ({"effect": trials[1].cand.name, "target": trials[1].cand.target or None,
+                                   "explained_share": trials[1].dss / ss} if len(trials) > 1 else None)
+        step["accepted"] = repr(best.cand)
+        accepted.append(best)
+        for _sweep in range(2):  # joint refit by block coordinate descent
+            for i, t in enumerate(accepted):
+                others = sum((ctx.stack(u.contrib) for j, u in enumerate(accepted) if j != i), np.zeros_like(R0))
+                new = t.cand.fit(ctx, R0 - others)
+                new.info = {**t.info, **{k: v for k, v in new.info.items()}}
+                accepted[i] = new
+    return accepted, steps
+
+
+def verification_changes(ctx: Context, accepted: list[Trial]) -> tuple[dict, list]:
+    """Model changes of all accepted effects together, and the measurement-only terms per run."""
+    kin = {"kinematic_in": None, "kinematic_out": None}
+    micro = ctx.micro_nominal
+    rig = []
+    meas = [np.zeros_like(m.nominal) for m in ctx.models]
+    psi_free = None
+    for t in accepted:
+        ch = t.cand.changes(t.x, t.info, ctx)
+        for k in kin:
+            if k in ch:
+                kin[k] = ch[k] if kin[k] is None else kin[k] + ch[k]
+        if "micro" in ch:
+            new = ch["micro"]
+            d = lambda a, b: tuple(x - y for x, y in zip(a, b))  # noqa: E731
+            micro = MicroMods(tuple(x + y for x, y in zip(micro.tip_relief, d(new.tip_relief, ctx.micro_nominal.tip_relief))),
+                              micro.tip_relief_start_diameter,
+                              micro.lead_crowning + new.lead_crowning - ctx.micro_nominal.lead_crowning,
+                              micro.helix_slope + new.helix_slope - ctx.micro_nominal.helix_slope)
+            if isinstance(t.cand, Micro) and t.info.get("psi_rad") is not None:
+                psi_free = t.info["psi_rad"]
+        if "rig_scale" in ch:
+            rig.extend(ch["rig_scale"])
+        mt = t.cand.measurement_term(t.x, t.info, ctx)
+        if mt is not None:
+            meas = [a + b for a, b in zip(meas, mt)]
+    changes = dict(kin, micro=None if micro == ctx.micro_nominal else micro, rig_scale=tuple(rig))
+    return {"changes": changes, "psi_free": psi_free}, meas
+
+
+def verify(ctx: Context, accepted: list[Trial]) -> list[np.ndarray]:
+    """Re-simulate every run with all accepted effects; model signals (3, n) per run on the run's grid."""
+    if not accepted:
+        return [m.nominal.copy() for m in ctx.models]
+    spec, meas = verification_changes(ctx, accepted)
+    out = []
+    for m, mt in zip(ctx.models, meas):
+        psi = spec["psi_free"] if spec["psi_free"] is not None else m.psi
+        ch = ModelChanges(mesh_phase_rad=psi, **spec["changes"])
+        if ch.kinematic_in is None and ch.kinematic_out is None and ch.micro is None and not ch.rig_scale \
+                and math.isclose(psi, m.psi):
+            out.append(m.nominal + mt)
+            continue
+        out.append(map_to_run(ctx.sim.simulate(m.cond, ch), m.run) + mt)
+    return out
