@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import resource
 import subprocess
 import sys
@@ -66,6 +67,7 @@ def process(path: Path) -> dict:
 
     from gearrom.signal import GearMeshInfo, compute_te, load_angles
 
+    load_before = os.getloadavg()[0]
     t0 = time.perf_counter()
     data = load_angles(path)
     t1 = time.perf_counter()
@@ -83,7 +85,8 @@ def process(path: Path) -> dict:
         "peak_rss_MB": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
         "grid_fs_hz": data.fs_hz, "grid_samples": int(data.t_s.size),
         "gmf_amplitude_um": summary["gmf_amplitude_um"], "recovered_rel_error": rel,
-        "repairs": len(res.repairs),
+        "repairs": len(res.repairs), "edge_interp": "cubic (default)",
+        "load_average_1min_before": load_before, "load_average_1min_after": os.getloadavg()[0],
     }
 
 

@@ -256,12 +256,13 @@ class EdgeStream:
         self._tail_t, self._tail_row = e_t[rest], e_row[rest]
 
     def _reference(self, d: np.ndarray) -> np.ndarray:
-        """Local reference interval for each interval: median over blocks of ``block`` intervals."""
+        """Local reference interval for each interval: median over blocks of ``block`` intervals
+        (of every 4th interval in full blocks)."""
         b = self.s.block
         nb = d.size // b
         ref = np.empty_like(d)
         if nb:
-            med = np.median(d[:nb * b].reshape(nb, b), axis=1)
+            med = np.median(d[:nb * b].reshape(nb, b)[:, ::4], axis=1)  # every 4th interval: robust enough, 4x cheaper
             ref[:nb * b] = np.repeat(med, b)
         if d.size > nb * b:
             rest = d[nb * b:]

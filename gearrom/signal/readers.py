@@ -142,16 +142,15 @@ def _iter_csv(meta: MeasurementMeta, chunk_rows: int) -> Iterator[EdgeChunk | An
                 raise MeasurementError(f"{path}: {where or f'near line {line0}'} "
                                        f"(parser: {type(exc).__name__}: {str(exc)[:200]})") from None
             n = len(df)
-            rows = np.arange(line0, line0 + n, dtype=np.int64)
             if meta.kind == "angles":
                 yield AngleChunk(df["t_s"].to_numpy(np.float64), df["theta_in_rad"].to_numpy(np.float64),
-                                 df["theta_out_rad"].to_numpy(np.float64), rows)
+                                 df["theta_out_rad"].to_numpy(np.float64), np.arange(line0, line0 + n, dtype=np.int64))
             else:
-                yield from _split_edges(path, df, rows)
+                yield from _split_edges(path, df, line0)
             line0 += n
 
 
-def _split_edges(path: Path, df, rows: np.ndarray) -> Iterator[EdgeChunk]:
+def _split_edges(path: Path, df, line0: int) -> Iterator[EdgeChunk]:
     cat = df["channel"]
     codes = cat.cat.codes.to_numpy()
     cats = list(cat.cat.categories)
@@ -159,7 +158,7 @@ def _split_edges(path: Path, df, rows: np.ndarray) -> Iterator[EdgeChunk]:
     if (codes < 0).any() or bad:
         where = np.flatnonzero((codes < 0) | np.isin(codes, bad))[0]
         val = cat.iloc[where]
-        raise MeasurementError(f"{path}: line {rows[where]}: column 'channel': unknown or empty channel "
+        raise MeasurementError(f"{path}: line {line0 + where}: column 'channel': unknown or empty channel "
                                f"{val if isinstance(val, str) else ''!r} (use {list(CHANNELS)})")
     t = df["t_s"].to_numpy(np.float64)
     direction = df["direction"].to_numpy(np.float64) if "direction" in df.columns else None
@@ -168,7 +167,7 @@ def _split_edges(path: Path, df, rows: np.ndarray) -> Iterator[EdgeChunk]:
             continue
         idx = np.flatnonzero(codes == cats.index(name))
         if idx.size:
-            yield EdgeChunk(name, t[idx], rows[idx], None if direction is None else direction[idx])
+            yield EdgeChunk(name, t[idx], idx + line0, None if direction is None else direction[idx])
 
 
 def _iter_tdms(meta: MeasurementMeta, chunk_rows: int) -> Iterator[EdgeChunk | AngleChunk]:
