@@ -80,6 +80,6 @@ def gmf_estimate(model: Drivetrain, rpms, torque_out: float | None = None, order
         sys = state_space(model, rpm, torque)
         j = list(sys.output_labels).index(output)
         om = np.arange(1, orders + 1) * z1 * rpm * 2 * math.pi / 60
-        resp = np.asarray(sys.frequency_response(om).response).reshape(sys.noutputs, 1, orders)
+        resp = np.asarray(sys.frequency_response(om).complex).reshape(sys.noutputs, 1, orders)
         out[i] = np.abs(resp[j, 0, :]) * np.abs(harm)
     return out

@@ -55,16 +55,24 @@ class DynamicRun:
     f_nom: float
     radii: dict[str, float]
     metadata: dict = field(default_factory=dict)
+    contact_state: np.ndarray | None = None
+
+    # contact_state (n,) int8: 1 drive flanks in contact, 0 separated (contact loss), -1 back flanks
 
     # ------------------------------------------------------------- derived
     @property
     def contact_loss(self) -> bool:
-        """True when the drive flanks separated at some sample (mesh force <= 0)."""
-        return bool(np.any(self.force <= 0.0))
+        """True when the mesh force would go negative at some sample: the drive flanks separated, or the
+        (linear, viscous) contact force turned tensile just before separating."""
+        if self.contact_state is not None and np.any(self.contact_state <= 0):
+            return True
+        return bool(np.any(self.force < 0.0))
 
     @property
     def back_contact(self) -> bool:
-        """True when the back flanks touched (negative mesh force)."""
+        """True when the back flanks touched (deflection beyond the backlash)."""
+        if self.contact_state is not None:
+            return bool(np.any(self.contact_state < 0))
         return bool(np.any(self.force < 0.0))
 
     @property
@@ -104,6 +112,8 @@ class DynamicRun:
                 "encoder_radius": ("encoder", self.encoder_radius, {"units": "m"})}
         for side, v in self.dte.items():
             data[f"dte_{side}"] = ("time", v, {"units": "m"})
+        if self.contact_state is not None:
+            data["contact_state"] = ("time", self.contact_state.astype(np.int8), {"units": "1"})
         return xr.Dataset(data, coords={"time": self.time, "encoder": list(self.encoders)},
                           attrs={"format": "gearrom.DynamicRun", "rpm_in": self.rpm_in, "torque_out_Nm": self.torque_out,
                                  "f_nom_N": self.f_nom, "radii_json": json.dumps(self.radii),
@@ -130,7 +140,8 @@ class DynamicRun:
                        delta=ds["delta"].values, force=ds["force"].values, ste=ds["ste"].values,
                        rpm_in=float(ds.attrs["rpm_in"]), torque_out=float(ds.attrs["torque_out_Nm"]),
                        f_nom=float(ds.attrs["f_nom_N"]), radii=json.loads(ds.attrs["radii_json"]),
-                       metadata=json.loads(ds.attrs["metadata_json"]))
+                       metadata=json.loads(ds.attrs["metadata_json"]),
+                       contact_state=ds["contact_state"].values if "contact_state" in ds else None)
 
     def plot(self):
         """DTE (sensor and clutch side) with the STE, and the mesh force."""
