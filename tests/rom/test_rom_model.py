@@ -1,0 +1,103 @@
+"""Drivetrain assembly, config validation, effects, result round trip."""
+import math
+import warnings
+
+import numpy as np
+import pytest
+
+from gearrom.config import load_config
+from gearrom.errors import ConfigError, ModelError
+from gearrom.rom.mesh import Effects, LoadRipple, PitchDeviations, Runout, line_of_action
+from gearrom.rom.result import DynamicRun
+from gearrom.rom.rig import build_rig
+from gearrom.rom.simulate import simulate_run
+
+
+@pytest.fixture(scope="module")
+def rig():
+    return build_rig("thesis-rig")
+
+
+def test_rig_dofs_and_rigid_mode(rig):
+    # 10 shaft stations x 6 + motor + brake rotors
+    assert rig.ndof == 62
+    M, K, D, G = rig.structure
+    r = rig.rigid_mode
+    # the nominal rotation stores no strain energy, does not stretch the mesh, and the loads balance on it
+    assert np.abs(K @ r).max() < 1e-6 * np.abs(K).max()
+    assert abs(rig.w @ r) < 1e-15
+    assert abs(rig.loads(120.0) @ r) < 1e-9
+    assert np.allclose(G, -G.T)  # gyroscopic matrix is skew
+
+
+def test_mesh_vector_kinematics(helical):
+    """Pure rotations give delta_t = rb1 rz1 + rb2 rz2 (rz2 = -theta2); helical adds axial/tilt terms."""
+    w1, w2, n = line_of_action(helical.pair)
+    rb1, rb2 = helical.pair.rb
+    assert w1[5] == pytest.approx(rb1) and w2[5] == pytest.approx(rb2)
+    assert abs(n[2]) == pytest.approx(math.sin(helical.pair.beta_b))  # axial component of the LOA
+    assert np.linalg.norm(n) == pytest.approx(1.0)
+    assert abs(w1[3]) + abs(w1[4]) > 0  # tilting moments
+
+
+def test_quasi_static_mesh_force_is_torque_balance(rig):
+    run = simulate_run(rig, 60.0, duration_s=0.02)
+    assert np.allclose(run.force, 120.0 / rig.pair.rb[1], rtol=2e-3)
+    assert not run.contact_loss and run.dynamic_factor == pytest.approx(1.0, abs=2e-3)
+
+
+def test_runout_gives_once_per_revolution_te(rig):
+    """Quasi-static: an output-gear eccentricity ecc appears as ecc sin(theta2) in the DTE (rigid following)."""
+    ecc = 5e-6
+    run = simulate_run(rig, 30.0, n_output_revs=1, settle_s=0.05,
+                       effects=Effects(runout=(Runout(1, ecc, 0.3, modulation=False),)))
+    d = run.dte["sensor"] - run.dte["sensor"].mean()
+    th2 = run.theta[run.encoders.index("out.sensor")]
+    amp = 2 * abs(np.mean(d * np.exp(-1j * th2)))
+    assert amp == pytest.approx(ecc, rel=0.01)
+
+
+def test_pitch_and_ripple_effects_run(rig):
+    z2 = rig.pair.z[1]
+    fp = np.zeros(z2)
+    fp[3] = 8e-6
+    eff = Effects(pitch=(PitchDeviations(1, tuple(fp)),), load_ripple=(LoadRipple(1.0, 5.0),))
+    run = simulate_run(rig, 600.0, n_output_revs=1, effects=eff)
+    # one tooth with +8 um pitch deviation shifts the rest of the revolution: ptp of the cumulative curve
+    d = run.dte["sensor"]
+    assert np.ptp(d) > 5e-6
+    assert "pitch" in run.metadata["effects"]
+
+
+def test_run_round_trip(tmp_path, rig):
+    run = simulate_run(rig, 1500.0, n_output_revs=0.25)
+    p = run.save(tmp_path / "run.nc")
+    back = DynamicRun.load(p)
+    np.testing.assert_array_equal(back.dte["sensor"], run.dte["sensor"])
+    np.testing.assert_array_equal(back.theta, run.theta)
+    assert back.encoders == run.encoders and back.metadata["config"] == "thesis-rig"
+    assert back.contact_loss == run.contact_loss
+    # pitch-circle option of the seed's eqs. 39/40
+    assert np.allclose(run.dte_at("sensor", "pitch"), run.dte["sensor"] * run.radii["r1"] / run.radii["rb1"])
+    fig = run.plot()
+    assert fig.axes
+
+
+def test_bad_rig_config_names_file_and_key(tmp_path):
+    p = tmp_path / "bad.toml"
+    p.write_text('extends = "thesis-helical"\n[rig.bearings]\nball_radial_N_per_mm = 1.0\n')
+    with pytest.raises(ConfigError, match=r"bad\.toml.*rig\.bearings\.ball_radial_N_per_mm"):
+        build_rig(p)
+    p.write_text('extends = "thesis-helical"\n[rig.input_shaft]\ngear_mm = 10.0\n')
+    with pytest.raises(ConfigError, match="must increase strictly"):
+        build_rig(p)
+    p.write_text('extends = "thesis-helical"\n[rom]\nmesh_damping_ratio = -0.1\n')
+    with pytest.raises(ConfigError, match="rom.mesh_damping_ratio"):
+        build_rig(p)
+
+
+def test_bad_run_arguments(rig):
+    with pytest.raises(ModelError, match="rpm_in"):
+        simulate_run(rig, -5.0)
+    with pytest.raises(ModelError, match="Drivetrain"):
+        simulate_run(3.0, 100.0)
