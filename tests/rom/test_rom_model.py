@@ -101,3 +101,15 @@ def test_bad_run_arguments(rig):
         simulate_run(rig, -5.0)
     with pytest.raises(ModelError, match="Drivetrain"):
         simulate_run(3.0, 100.0)
+
+
+def test_components_in_exudyn_match_assembly(rig):
+    """Second method: exudyn's own linearisation of the component-by-component system equals M, K, D."""
+    from gearrom.rom.physical import build_exudyn
+
+    _, mbs, nodes = build_exudyn(rig)
+    assert len(nodes) == len(rig.stations)
+    M, K, D = mbs.ComputeLinearizedSystem()
+    M0, K0, D0 = rig.linear(0.0, 120.0)
+    for a, b in ((M, M0), (K, K0), (D, D0)):
+        assert np.abs(a - b).max() <= 1e-12 * np.abs(b).max()
