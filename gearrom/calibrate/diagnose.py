@@ -31,6 +31,7 @@ from gearrom.signal import GearMeshInfo, ReadSettings
 
 log = logging.getLogger(__name__)
 UM = 1e-6
+UNEXPLAINED_SHARE = 0.05  # an unexplained line must exceed 5 % of the largest residual line before the fit
 
 
 def diagnose(config: str | Path, measurements: Sequence[str | Path], *, simulator=None,
@@ -170,7 +171,9 @@ def _assemble(ctx: Context, config, sim, D, accepted, steps, after) -> Diagnosis
                                 "chosen_share": t.info.get("explained_share"), "alternative_share": rv["explained_share"],
                                 "suggested_run": rv["suggested_run"]})
     # unexplained: lines left in the after-residual, grouped across runs
-    peaks = [chz.spectral_peaks(ra, m.run.fs_hz, m.noise_m, floor_m=0.0) for ra, m in zip(res_a, models)]
+    floors = [UNEXPLAINED_SHARE * max([a for _, a in chz.spectral_peaks(rb, m.run.fs_hz, m.noise_m)] or [0.0])
+              for rb, m in zip(res_b, models)]
+    peaks = [chz.spectral_peaks(ra, m.run.fs_hz, m.noise_m, floor_m=fl) for ra, m, fl in zip(res_a, models, floors)]
     unexplained = chz.classify_peaks([m.run for m in models], peaks)
     peaks_b = [chz.spectral_peaks(rb, m.run.fs_hz, m.noise_m) for rb, m in zip(res_b, models)]
     noise_line = [m.noise_m * math.sqrt(2 / m.run.t_s.size) for m in models]

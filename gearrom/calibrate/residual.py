@@ -37,6 +37,7 @@ from gearrom.signal import GearMeshInfo, ReadSettings, TESettings, process_measu
 log = logging.getLogger(__name__)
 
 SIGNALS = ("te", "u_in", "u_out")
+EDGE_TRIM = 24  # working-grid samples dropped at each end (decimation filter transients)
 
 
 @dataclass(frozen=True, eq=False)
@@ -130,6 +131,8 @@ def load_run(path: str | Path, mesh: GearMeshInfo, torque_out_Nm: float | None =
     y = np.vstack([_decimate(v, q) for v in (res.te_m, u1, u2)])
     n = y.shape[1]
     th1d, th2d, td = th1[::q][:n], th2[::q][:n], res.t_s[::q][:n]
+    cut = slice(EDGE_TRIM, n - EDGE_TRIM)  # the decimation filter's start/end transients
+    y, th1d, th2d, td = y[:, cut], th1d[cut], th2d[cut], td[cut]
     y = np.vstack([signal.detrend(v) for v in y])
     run = RunData(name=str(path), rpm_in=float(res.rpm_in), rpm_in_nominal=float(res.rpm_in_nominal),
                   torque_out_Nm=float(torque), t_s=td - td[0], theta_in_rad=th1d, theta_out_rad=th2d, y=y,
@@ -177,16 +180,21 @@ def line_design(theta_in: np.ndarray, theta_out: np.ndarray, lines: np.ndarray) 
     return np.hstack([np.cos(ph), -np.sin(ph)])
 
 
-def fit_lines(y: np.ndarray, theta_in: np.ndarray, theta_out: np.ndarray, lines) -> np.ndarray:
+def fit_lines(y: np.ndarray, theta_in: np.ndarray, theta_out: np.ndarray, lines, trend: bool = True) -> np.ndarray:
     """Complex amplitudes ``c`` of ``y ~ Re(sum c exp(i phi))`` by joint least squares over the lines.
 
-    ``y`` may be 1-D or (k, n) (k signals at once; the result is then (k, n_lines)).
+    ``y`` may be 1-D or (k, n) (k signals at once; the result is then (k, n_lines)). With ``trend``
+    an offset and a slope (in input angle) are fitted along as nuisance terms: every compared signal
+    went through a linear detrend, which is not orthogonal to the lines over a short record.
     """
     A = line_design(theta_in, theta_out, lines)
+    L = A.shape[1] // 2
+    if trend:
+        u = (theta_in - theta_in.mean()) / max(np.ptp(theta_in), 1e-12)
+        A = np.hstack([A, np.ones((A.shape[0], 1)), u[:, None]])
     Y = np.atleast_2d(y).T
     x = scipy.linalg.lstsq(A, Y, lapack_driver="gelsy", cond=1e-10)[0]
-    L = A.shape[1] // 2
-    c = (x[:L] + 1j * x[L:]).T
+    c = (x[:L] + 1j * x[L:2 * L]).T
     return c[0] if np.ndim(y) == 1 else c
 
 
