@@ -8,8 +8,8 @@ import time
 import numpy as np
 
 from gearrom.errors import ConfigError, ModelError
-from gearrom.fe.explicit.geometry import (color_elements, element_geometry, hourglass_coefficients,
-                                          stable_time_step)
+from gearrom.fe.explicit.geometry import (color_elements, element_geometry, element_max_eigenvalue,
+                                          hourglass_coefficients, nodal_omega2)
 from gearrom.fe.explicit.loop import NE_OUT, ramp, run_loop_parallel, run_loop_serial
 from gearrom.fe.explicit.model import ExplicitModel
 from gearrom.fe.explicit.result import ExplicitResult
@@ -52,8 +52,8 @@ def prepare(model: ExplicitModel, safety: float = 0.9, max_candidates: int = 8) 
     np.add.at(mass, conn0, mat.rho * me)
     if np.any(mass <= 0):
         raise ModelError(f"node {int(np.argmin(mass))} belongs to no element (zero mass)")
-    dte = stable_time_step(B, V0, gamma, me, lam, mu, mat.rho, khg)
-    omega2 = (2.0 / dte.min()) ** 2
+    lam_e = element_max_eigenvalue(B, V0, gamma, lam, mu, khg)
+    node_w2 = nodal_omega2(conn0, lam_e, mass)
     color = color_elements(conn0, n)
     order = np.argsort(color, kind="stable")
     cptr = np.searchsorted(color[order], np.arange(color.max() + 2)).astype(np.int64)
@@ -67,6 +67,7 @@ def prepare(model: ExplicitModel, safety: float = 0.9, max_candidates: int = 8) 
     d["fixmask"] = fixmask
     # rigid references
     kind = -np.ones(n, np.int64)
+    extra_w2 = [0.0]
     nr = len(model.references)
     r_nodes, r_ptr, r_off = [], [0], []
     R = {k: np.zeros(nr) for k in ("M", "J", "speed", "ramp", "torque", "tramp", "k", "c", "kb", "cb")}
@@ -97,10 +98,8 @@ def prepare(model: ExplicitModel, safety: float = 0.9, max_candidates: int = 8) 
         else:
             r_mode[r] = 2 if (ref.spring_k > 0 or ref.spring_c > 0) else 1
         r_fixtr[r] = 1 if ref.fix_translation else 0
-        if ref.bearing_k > 0:
-            omega2 = max(omega2, ref.bearing_k / R["M"][r] * 4)
-        if ref.spring_k > 0:
-            omega2 = max(omega2, ref.spring_k / R["J"][r] * 4)
+        extra_w2.append(ref.bearing_k / R["M"][r])
+        extra_w2.append(ref.spring_k / R["J"][r])
     d.update(kind=kind, r_nodes=np.concatenate(r_nodes) if nr else np.zeros(0, np.int64),
              r_ptr=np.array(r_ptr, np.int64), r_off=np.concatenate(r_off) if nr else np.zeros((0, 2)),
              r_mode=r_mode, r_fixtr=r_fixtr, r_center=r_center, **{"r_" + k: v for k, v in R.items()})
@@ -145,9 +144,10 @@ def prepare(model: ExplicitModel, safety: float = 0.9, max_candidates: int = 8) 
         slaves.append(sl); s_pair.append(np.full(sl.size, p))
         segs.append(sg); g_pair.append(np.full(len(sg), p)); g_k.append(k); g_rad.append(rad)
         p_mu.append(cp.mu); p_vreg.append(cp.v_reg); p_depth.append(depth)
-        msl = mass[sl].min()
-        mma = mass[np.unique(sg)].min()
-        omega2 = max(omega2, (2.0 / dte.min()) ** 2 + k.max() * (1 / msl + 1 / mma))
+        # the penalty springs add at most 2 k to a slave node and 4 k to a master node (two slaves)
+        node_w2[sl] += 2 * k.max() / mass[sl]
+        mn = np.unique(sg)
+        node_w2[mn] += 4 * k.max() / mass[mn]
     nc = len(model.contacts)
     d.update(slaves=np.concatenate(slaves) if nc else np.zeros(0, np.int64),
              s_pair=np.concatenate(s_pair).astype(np.int64) if nc else np.zeros(0, np.int64),
@@ -166,7 +166,9 @@ def prepare(model: ExplicitModel, safety: float = 0.9, max_candidates: int = 8) 
     d["ncand"] = np.zeros(ns, np.int64)
     d["gap"] = np.zeros(ns)
     d["c_nodes"] = np.unique(np.concatenate([d["slaves"], d["segs"].ravel()])) if nc else np.zeros(0, np.int64)
-    d["dt_stable"] = 2.0 / math.sqrt(omega2)
+    # tied nodes move with their reference: their bound is replaced by the reference's own
+    free_w2 = node_w2[kind < 0].max() if np.any(kind < 0) else 0.0
+    d["dt_stable"] = 2.0 / math.sqrt(max(free_w2, max(extra_w2)))
     d["dt"] = safety * d["dt_stable"]
     return d
 
@@ -225,8 +227,8 @@ def solve(model: ExplicitModel, t_end: float, sample_period: float | None = None
     prepared : dict, optional
         Output of :func:`prepare` for this model, to skip the set-up.
     parallel : bool, optional
-        Use the multi-threaded loop (default: when the mesh has >= 3000 elements; below that the
-        per-step thread start-up costs more than it saves).
+        Use the multi-threaded loop (default: when the mesh has >= 20000 elements; below that the
+        per-step thread start-up costs more than it saves, and much more on a loaded machine).
     """
     if not t_end > 0:
         raise ConfigError(f"t_end must be > 0 s, got {t_end}")
@@ -263,7 +265,7 @@ def solve(model: ExplicitModel, t_end: float, sample_period: float | None = None
     chunks = max(1, min(chunks, n_out_total))
     bounds = np.linspace(0, n_out_total, chunks + 1).round().astype(int)
     if parallel is None:
-        parallel = model.elements.shape[0] >= 3000
+        parallel = model.elements.shape[0] >= 20000
     run_loop = run_loop_parallel if parallel else run_loop_serial
     row = 0
     t0 = 0.0

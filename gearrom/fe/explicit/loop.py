@@ -17,8 +17,10 @@ torques, prescribed-rotation reactions, drivers), 9 balance error sum(0..7) - 8 
 """
 from __future__ import annotations
 
+import hashlib
 import math
 import types
+from pathlib import Path
 
 import numpy as np
 from numba import njit, prange
@@ -330,6 +332,32 @@ def _run_loop(nsteps, dt, out_every, t0,
     acc[6] = wint
     acc[7] = whg
     return nout
+
+
+def _drop_stale_cache() -> None:
+    """Delete cached loop binaries when a module the loop inlines has changed.
+
+    numba's on-disk cache only checks the time stamp of the file defining the cached function
+    (this one), not of the kernels/contact modules compiled into it; a hash of those sources is
+    kept next to the cache and a mismatch removes the stale ``loop.run_loop_*`` entries.
+    """
+    here = Path(__file__).resolve().parent
+    cache = here / "__pycache__"
+    try:
+        digest = hashlib.sha1(b"".join((here / f).read_bytes()
+                                       for f in ("kernels.py", "contact.py", "loop.py"))).hexdigest()
+        stamp = cache / "explicit_loop.sha1"
+        if stamp.is_file() and stamp.read_text() == digest:
+            return
+        for old in cache.glob("loop.run_loop_*.nb[ic]"):
+            old.unlink()
+        cache.mkdir(exist_ok=True)
+        stamp.write_text(digest)
+    except OSError:     # read-only install: numba then falls back to its own cache locator
+        pass
+
+
+_drop_stale_cache()
 
 
 def _compiled(name: str, parallel: bool):

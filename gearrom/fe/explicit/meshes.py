@@ -102,3 +102,55 @@ def disk_q4(radius: float, n_core: int, n_ring: int, center=(0.0, 0.0), grading:
         elems.append(np.column_stack([p, q, qn, pn]))
     nodes = np.vstack(nodes) + np.asarray(center, float)
     return nodes, np.vstack(elems), layer_ids[-1]
+
+
+def graded_coordinates(n: int, length: float, h0: float) -> np.ndarray:
+    """``n + 1`` coordinates from 0 to ``length`` with first cell ``h0`` and geometric growth."""
+    if not 0 < h0 <= length or n < 1:
+        raise ConfigError("graded_coordinates needs 0 < h0 <= length and n >= 1")
+    if h0 * n >= length:
+        return np.linspace(0.0, length, n + 1)
+    lo, hi = 1.0 + 1e-12, 2.0
+    while h0 * (hi ** n - 1) / (hi - 1) < length:
+        hi *= 2
+    for _ in range(200):
+        r = 0.5 * (lo + hi)
+        if h0 * (r ** n - 1) / (r - 1) < length:
+            lo = r
+        else:
+            hi = r
+    x = np.concatenate([[0.0], np.cumsum(h0 * r ** np.arange(n))])
+    return x * (length / x[-1])
+
+
+def grid_hex8(xs: np.ndarray, ys: np.ndarray, zs: np.ndarray):
+    """Structured Hex8 mesh on the tensor grid xs x ys x zs (node (i,j,k) = (k ny + j) nx + i)."""
+    nx, ny, nz = len(xs) - 1, len(ys) - 1, len(zs) - 1
+    Z, Y, X = np.meshgrid(zs, ys, xs, indexing="ij")
+    nodes = np.column_stack([X.ravel(), Y.ravel(), Z.ravel()])
+    k, j, i = np.meshgrid(np.arange(nz), np.arange(ny), np.arange(nx), indexing="ij")
+    sx, sxy = nx + 1, (nx + 1) * (ny + 1)
+    n0 = (k * sxy + j * sx + i).ravel()
+    bottom = [n0, n0 + 1, n0 + sx + 1, n0 + sx]
+    return nodes, np.column_stack(bottom + [b + sxy for b in bottom])
+
+
+def quarter_ball_hex8(radius: float, n_xy: int, n_z: int, h_pole: float):
+    """Hex8 mesh of the quarter ball x >= 0, y >= 0 (centre at the origin), graded to the south pole.
+
+    A graded tensor grid of the box [0,1] x [0,1] x [-1,1] is mapped to the ball by
+    p -> radius p ((1 - w) + w max|p_i| / |p|), w = max|p_i| (identity at the centre, cube shells
+    onto spheres at the surface; monotone along every ray); cells are smallest (about ``h_pole``)
+    at the pole (0, 0, -radius) and never smaller than that inside. Returns (nodes, elements, surface_ids) where surface_ids are the
+    nodes on the spherical surface.
+    """
+    if not 0 < h_pole < radius:
+        raise ConfigError("quarter_ball_hex8 needs 0 < h_pole < radius")
+    t = graded_coordinates(n_xy, 1.0, h_pole / radius)
+    z = graded_coordinates(n_z, 2.0, h_pole / radius) - 1.0
+    p, elements = grid_hex8(t, t, z)
+    inf = np.abs(p).max(axis=1)
+    nrm = np.linalg.norm(p, axis=1)
+    scale = (1.0 - inf) + inf * np.divide(inf, nrm, out=np.zeros_like(inf), where=nrm > 0)
+    nodes = radius * p * scale[:, None]
+    return nodes, elements, np.nonzero(np.isclose(inf, 1.0))[0]
