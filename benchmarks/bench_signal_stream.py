@@ -8,7 +8,7 @@ Targets: >= 5 M edges/s, < 2 GB peak.
 
 Usage::
 
-    python benchmarks/bench_signal_stream.py [--seconds 10] [--dir /tmp/gearrom_bench_signal] [--keep]
+    python benchmarks/bench_signal_stream.py [--seconds 10] [--dir /tmp/gearrom_bench_signal] [--keep] [--reuse]
 
 The data file is written to ``--dir`` (not the repository) and deleted afterwards unless ``--keep``.
 """
@@ -94,7 +94,8 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seconds", type=float, default=10.0)
     ap.add_argument("--dir", type=Path, default=Path("/tmp/gearrom_bench_signal"))
-    ap.add_argument("--keep", action="store_true")
+    ap.add_argument("--keep", action="store_true", help="keep the data file")
+    ap.add_argument("--reuse", action="store_true", help="reuse a kept data file (same --seconds) instead of generating")
     ap.add_argument("--stage", choices=("all", "generate", "process"), default="all")
     a = ap.parse_args()
     path = a.dir / "stream.json"
@@ -105,8 +106,9 @@ def main() -> int:
         sys.stdout.write(json.dumps(process(path)) + "\n")
         return 0
     t0 = time.perf_counter()
-    subprocess.run([sys.executable, __file__, "--stage", "generate", "--seconds", str(a.seconds), "--dir", str(a.dir)],
-                   check=True)
+    if not (a.reuse and path.is_file()):
+        subprocess.run([sys.executable, __file__, "--stage", "generate", "--seconds", str(a.seconds), "--dir",
+                        str(a.dir)], check=True)
     gen_s = time.perf_counter() - t0
     out = subprocess.run([sys.executable, __file__, "--stage", "process", "--dir", str(a.dir)], check=True,
                          capture_output=True, text=True).stdout

@@ -198,12 +198,16 @@ class TEResult:
         m = sp.x <= fmax
         ax2.plot(sp.x[m], sp.amplitude[m] / UM, lw=0.8)
         for p in self.peaks():
-            if "x" in p.label and "+" not in p.label and "-" not in p.label:
-                f = p.x * self.rpm_in / 60.0
+            f = p.x * self.rpm_in / 60.0
+            if f > fmax:
+                continue
+            if "+" not in p.label and "-" not in p.label:
                 ax2.axvline(f, color="C3", lw=0.6, ls="--")
                 ax2.annotate(p.label, (f, p.amplitude / UM), fontsize=8, color="C3")
+            elif p.label.split("GMF")[1][1] == "1":  # first sidebands of each shaft
+                ax2.axvline(f, color="0.6", lw=0.5, ls=":")
         ax2.set(xlabel="frequency [Hz]", ylabel="amplitude [um]", title=f"amplitude spectrum ({sp.window} window, "
-                "coherent-gain corrected); GMF harmonics marked")
+                "coherent-gain corrected); GMF harmonics (red) and +-1 shaft-order sidebands (grey)")
         for kind, color in (("input", "C0"), ("output", "C1")):
             try:
                 ang, avg, n = self.tsa(kind)

@@ -53,6 +53,11 @@ class Spectrum:
     n: int
 
     @property
+    def amplitude_um(self) -> np.ndarray:
+        """Amplitude in um (for a signal in m)."""
+        return self.amplitude * 1e6
+
+    @property
     def resolution(self) -> float:
         """Bin spacing (Hz or orders)."""
         return float(self.x[1] - self.x[0])
