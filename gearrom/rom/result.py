@@ -57,7 +57,7 @@ class DynamicRun:
     metadata: dict = field(default_factory=dict)
     contact_state: np.ndarray | None = None
 
-    # contact_state (n,) int8: 1 drive flanks in contact, 0 separated (contact loss), -1 back flanks
+    # contact_state (n,) int8: 1 drive flanks loaded, 0 separated or tensile (contact loss), -1 back flanks
 
     # ------------------------------------------------------------- derived
     @property

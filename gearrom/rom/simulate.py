@@ -98,7 +98,7 @@ def simulate_run(config_or_model, rpm_in: float, torque_out_Nm: float | None = N
     import exudyn as exu
     from exudyn.itemInterface import (LoadCoordinate, MarkerNodeCoordinate, NodeGenericData, NodeGenericODE2,
                                       NodePointGround, ObjectConnectorCoordinateSpringDamperExt, ObjectGenericODE2,
-                                      SensorNode)
+                                      SensorMarker, SensorNode)
 
     if not (rpm_in > 0 and math.isfinite(rpm_in)):
         raise ModelError(f"rpm_in must be positive, got {rpm_in!r}")
@@ -176,8 +176,8 @@ def simulate_run(config_or_model, rpm_in: float, torque_out_Nm: float | None = N
     mbs.SetPreStepUserFunction(pre_step)
     sens = mbs.AddSensor(SensorNode(nodeNumber=node, outputVariableType=exu.OutputVariableType.Coordinates,
                                     storeInternal=True, writeToFile=False))
-    sens_v = mbs.AddSensor(SensorNode(nodeNumber=node, outputVariableType=exu.OutputVariableType.Coordinates_t,
-                                      storeInternal=True, writeToFile=False))
+    sens_v = mbs.AddSensor(SensorMarker(markerNumber=m_delta, outputVariableType=exu.OutputVariableType.Coordinates_t,
+                                        storeInternal=True, writeToFile=False))
     mbs.Assemble()
     s = exu.SimulationSettings()
     s.timeIntegration.numberOfSteps = n_steps
@@ -194,7 +194,7 @@ def simulate_run(config_or_model, rpm_in: float, torque_out_Nm: float | None = N
         raise SolverError(f"time integration failed at {rpm_in} rpm (h = {h:.3g} s); try a smaller rom.max_step_us")
     sel = (raw[:, 0] >= settle - 0.5 / fs) & (raw[:, 0] < t_end - 0.5 / fs)
     tt, yy = raw[sel, 0], raw[sel, 1:]
-    vv = mbs.GetSensorStoredData(sens_v)[sel, 1:]
+    vv = mbs.GetSensorStoredData(sens_v)[sel, 1]
     return _postprocess(model, red, law, yy, vv, tt, settle, rpm_in, torque, theta0, {
         "config": model.metadata.get("config", model.name), "config_digest": model.metadata.get("config_digest", ""),
         "z1": z1, "z2": z2, "step_s": h, "n_steps": n_steps, "modes_kept": int(red.freqs.size),
@@ -225,12 +225,14 @@ def _postprocess(model, red, law, yy, vv, tt, settle, rpm_in, torque, theta0, me
     delta = yy[:, red.i_delta]
     k, e = law.evaluate_array(th1, th2)
     e0 = e - law.f_nom / k
-    c = model.mesh_damping(torque)
-    ddelta = vv[:, red.i_delta]
     lower = float(np.mean(law.e_grid - law.f_nom / law.k_grid)) - model.mesh.backlash
-    state = np.where(delta > e0, 1, np.where(delta < lower, -1, 0)).astype(np.int8)
-    force = np.where(state == 1, k * (delta - e0) + c * ddelta,
-                     np.where(state == -1, k * (delta - lower) + c * ddelta, 0.0))
+    # mesh force at the sample instants (exact mesh angles; the solver holds k, e0 at each step's midpoint)
+    c = model.mesh_damping(torque)
+    ddelta = np.asarray(vv, dtype=float)
+    force = np.where(delta > e0, k * (delta - e0) + c * ddelta,
+                     np.where(delta < lower, k * (delta - lower) + c * ddelta, 0.0))
+    # 1: drive flanks loaded; 0: separated or the (viscous) contact force turned tensile; -1: back flanks
+    state = np.where(delta < lower, -1, np.where(force > 0, 1, 0)).astype(np.int8)
     return DynamicRun(
         time=t, encoders=tuple(e.name for e in model.encoders),
         encoder_radius=np.array([e.radius for e in model.encoders]), theta=np.array(theta), dte=dte,
