@@ -70,7 +70,7 @@ def iter_chunks(meta: MeasurementMeta, chunk_rows: int = 2_000_000) -> Iterator[
 
 def _read_header(path: Path, kind: str) -> list[str]:
     try:
-        with open(path, encoding="utf-8", newline="") as fh:
+        with open(path, encoding="utf-8-sig", newline="") as fh:
             first = fh.readline()
     except (OSError, UnicodeDecodeError) as exc:
         raise MeasurementError(f"{path}: line 1: cannot read header: {exc}") from None
@@ -93,7 +93,7 @@ def _read_header(path: Path, kind: str) -> list[str]:
 def _diagnose_csv(path: Path, cols: list[str], first_line: int, max_lines: int) -> str | None:
     """Scan from ``first_line`` for the first line that does not parse; describe it or return None."""
     try:
-        with open(path, encoding="utf-8", errors="replace", newline="") as fh:
+        with open(path, encoding="utf-8-sig", errors="replace", newline="") as fh:
             reader = csv.reader(fh)
             for lineno, fields in enumerate(reader, start=1):
                 if lineno < first_line:
@@ -128,7 +128,7 @@ def _iter_csv(meta: MeasurementMeta, chunk_rows: int) -> Iterator[EdgeChunk | An
     line0 = 2  # file line number of the first data row
     try:
         reader = pd.read_csv(path, dtype=dtype, chunksize=chunk_rows, engine="c", skip_blank_lines=False,
-                             quoting=csv.QUOTE_NONE, encoding="utf-8", header=0, names=cols)
+                             quoting=csv.QUOTE_NONE, encoding="utf-8-sig", header=0, names=cols)
     except Exception as exc:  # noqa: BLE001 - any parser failure becomes a MeasurementError
         raise MeasurementError(f"{path}: cannot parse CSV: {type(exc).__name__}: {exc}") from None
     with reader:

@@ -206,8 +206,8 @@ class TEResult:
                 ax2.annotate(p.label, (f, p.amplitude / UM), fontsize=8, color="C3")
             elif p.label.split("GMF")[1][1] == "1":  # first sidebands of each shaft
                 ax2.axvline(f, color="0.6", lw=0.5, ls=":")
-        ax2.set(xlabel="frequency [Hz]", ylabel="amplitude [um]", title=f"amplitude spectrum ({sp.window} window, "
-                "coherent-gain corrected); GMF harmonics (red) and +-1 shaft-order sidebands (grey)")
+        ax2.set(xlabel="frequency [Hz]", ylabel="amplitude [um]", title=f"amplitude spectrum ({sp.window}, coherent-"
+                "gain corrected): GMF harmonics red, +-1 shaft-order sidebands grey")
         for kind, color in (("input", "C0"), ("output", "C1")):
             try:
                 ang, avg, n = self.tsa(kind)

@@ -266,3 +266,12 @@ def test_bad_data_names(base_run, tmp_path, data):
     doc["data"] = data
     (tmp_path / "m.json").write_text(json.dumps(doc))
     expect_error(tmp_path / "m.json", "m.json" if data in ("a\x00.csv", "/", "run.txt") else "", "data")
+
+
+def test_windows_csv_with_bom_and_crlf(base_run, tmp_path):
+    """A CSV written on Windows (UTF-8 byte-order mark, CRLF line ends) reads the same."""
+    lines = _lines(base_run)
+    path = corrupted(base_run, tmp_path)
+    (tmp_path / "bad.csv").write_bytes(b"\xef\xbb\xbf" + "".join(lines).replace("\n", "\r\n").encode())
+    a, b = load_angles(base_run), load_angles(path)
+    np.testing.assert_array_equal(a.theta_out_rad, b.theta_out_rad)
