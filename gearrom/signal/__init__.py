@@ -8,6 +8,7 @@ plot, save/load). :func:`process_measurement` does all of it. :func:`emulate_edg
 simulations run through the same pipeline.
 """
 from gearrom.signal.angles import AngleData, load_angles
+from gearrom.signal.config import settings_from_config, settings_from_section
 from gearrom.signal.edges import ReadSettings, Repair
 from gearrom.signal.emulate import emulate_channel, emulate_edges
 from gearrom.signal.filters import FilterSettings, apply_filters, bessel_lowpass, highpass
@@ -22,6 +23,7 @@ __all__ = [
     "AngleData", "AngleRecord", "EdgeCSVWriter", "EdgeRecord", "EncoderInfo", "FilterSettings", "GearMeshInfo", "MeasurementMeta",
     "Peak", "ReadSettings", "Repair", "Spectrum", "TEResult", "TESettings", "amplitude_spectrum", "annotate_gmf",
     "apply_filters", "bessel_lowpass", "compute_te", "emulate_channel", "emulate_edges", "highpass", "load_angles",
-    "order_spectrum", "process_measurement", "read_meta", "resample_angle", "synchronous_average",
+    "order_spectrum", "process_measurement", "read_meta", "resample_angle", "settings_from_config",
+    "settings_from_section", "synchronous_average",
     "te_from_angles", "write_measurement", "write_meta",
 ]

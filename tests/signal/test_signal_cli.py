@@ -34,10 +34,31 @@ def test_te_cli_pitch_and_config_key(base_run, tmp_path, capsys):
     assert d["gmf_amplitude_um"][0] == pytest.approx(5.0 / 0.940732, rel=0.01)
 
 
-def test_te_cli_errors_are_one_line(tmp_path, capsys):
+def test_te_cli_errors_are_one_line(base_run, tmp_path, capsys):
     (tmp_path / "bad.json").write_text('{"format": "gearrom.measurement/1"}')
     assert main(["te", str(tmp_path / "bad.json")]) == 2
     err = capsys.readouterr().err
     assert "bad.json" in err and "missing key" in err and len(err.strip().splitlines()) == 1
-    assert main(["te", str(tmp_path / "bad.json"), "--lowpass-hz", "-5"]) == 2
+    assert main(["te", str(base_run), "--lowpass-hz", "-5"]) == 2
     assert "lowpass_hz" in capsys.readouterr().err
+
+
+def test_te_cli_signal_section_and_override(base_run, tmp_path, capsys):
+    """[signal] of the config sets the low-pass; a CLI option overrides it. The zero-phase Bessel low-pass at
+    1000 Hz scales the 666.7 Hz GMF line by |H|^2 of the analog Bessel filter (scipy.signal.freqs)."""
+    import math
+
+    from scipy import signal
+
+    cfg = tmp_path / "pair.toml"
+    cfg.write_text('extends = "thesis-helical"\nname = "with-signal"\n[signal]\nlowpass_hz = 1000.0\nte_on = "line"\n')
+    assert main(["te", str(base_run), "--config", str(cfg), "--json", "-"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    b, a = signal.bessel(4, 2 * math.pi * 1000.0, analog=True, norm="mag")
+    h = abs(signal.freqs(b, a, worN=[2 * math.pi * 32 * 1250 / 60])[1][0]) ** 2
+    assert d["filters"]["lowpass_hz"] == 1000.0 and d["gmf_amplitude_um"][0] == pytest.approx(5 * h, rel=0.01)
+    assert main(["te", str(base_run), "--config", str(cfg), "--lowpass-hz", "20000", "--json", "-"]) == 0
+    assert json.loads(capsys.readouterr().out)["filters"]["lowpass_hz"] == 20000.0
+    cfg.write_text('extends = "thesis-helical"\n[signal]\nlowpass_herz = 1000.0\n')
+    assert main(["te", str(base_run), "--config", str(cfg)]) == 2
+    assert "lowpass_herz" in capsys.readouterr().err

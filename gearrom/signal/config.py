@@ -1,0 +1,94 @@
+"""The ``[signal]`` section of a gear configuration: default TE processing settings.
+
+Example (units in the key names; every key optional)::
+
+    [signal]
+    te_on = "line"            # or "pitch"
+    lowpass_hz = 5000.0       # Bessel low-pass cut-off (-3 dB of one pass); absent = none
+    lowpass_order = 4
+    highpass_hz = 5.0         # Butterworth high-pass against drift; absent = none
+    highpass_order = 2
+    zero_phase = true
+    detrend = "linear"        # "linear", "constant" or "none"
+    window = "hann"           # window of the amplitude spectrum in Hz
+    samples_per_rev = 4096    # angle grid for order spectra and averages
+    edge_interp = "cubic"     # or "linear"
+    grid_fs_hz = 100000.0     # common time grid (default from the edge rate)
+    rpm_tolerance = 0.05
+    ratio_tolerance = 0.005
+    strict = false
+
+``gearrom te`` starts from these and lets its options override them.
+"""
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from gearrom.errors import ConfigError
+from gearrom.signal.edges import ReadSettings
+from gearrom.signal.filters import FilterSettings
+from gearrom.signal.te import TESettings
+
+# key -> (type, target, field): target "te", "filter" or "read"
+SIGNAL_KEYS: dict[str, tuple[type | tuple[type, ...], str, str]] = {
+    "te_on": (str, "te", "te_on"),
+    "lowpass_hz": ((int, float), "filter", "lowpass_hz"),
+    "lowpass_order": (int, "filter", "lowpass_order"),
+    "highpass_hz": ((int, float), "filter", "highpass_hz"),
+    "highpass_order": (int, "filter", "highpass_order"),
+    "zero_phase": (bool, "filter", "zero_phase"),
+    "detrend": (str, "filter", "detrend"),
+    "window": (str, "te", "window"),
+    "samples_per_rev": (int, "te", "samples_per_rev"),
+    "ratio_tolerance": ((int, float), "te", "ratio_tolerance"),
+    "edge_interp": (str, "read", "edge_interp"),
+    "grid_fs_hz": ((int, float), "read", "fs_hz"),
+    "rpm_tolerance": ((int, float), "read", "rpm_tolerance"),
+    "strict": (bool, "read", "strict"),
+}
+
+
+def settings_from_section(section: Mapping[str, Any], where: str = "[signal]",
+                          overrides: Mapping[str, Any] | None = None) -> tuple[TESettings, ReadSettings]:
+    """TE and reader settings from a ``[signal]`` section, with optional overrides (same keys).
+
+    Parameters
+    ----------
+    section : mapping
+        The section (``GearConfig.section("signal")``).
+    where : str
+        Name of the config for messages.
+    overrides : mapping, optional
+        Values that replace the section's (e.g. from command-line options); None values are ignored.
+
+    Raises
+    ------
+    ConfigError
+        Unknown key, wrong type or invalid value (names the key).
+    """
+    values = dict(section)
+    values.update({k: v for k, v in (overrides or {}).items() if v is not None})
+    kw: dict[str, dict[str, Any]] = {"te": {}, "filter": {}, "read": {}}
+    for key, val in values.items():
+        if key not in SIGNAL_KEYS:
+            raise ConfigError(f"{where}: unknown key {key!r} in [signal]; allowed: {sorted(SIGNAL_KEYS)}")
+        typ, target, name = SIGNAL_KEYS[key]
+        if isinstance(val, bool) and typ is not bool or not isinstance(val, typ):
+            raise ConfigError(f"{where}: [signal] key {key!r} has the wrong type ({val!r})")
+        kw[target][name] = float(val) if typ == (int, float) else val
+    try:
+        te = TESettings(filters=FilterSettings(**kw["filter"]), **kw["te"])
+        read = ReadSettings(**kw["read"])
+    except ConfigError as exc:
+        raise ConfigError(f"{where}: [signal]: {exc}") from None
+    return te, read
+
+
+def settings_from_config(name_or_path: str | Path, overrides: Mapping[str, Any] | None = None):
+    """``(TESettings, ReadSettings)`` from the ``[signal]`` section of a gear configuration."""
+    from gearrom.config import load_config
+
+    cfg = load_config(name_or_path, check=False)
+    return settings_from_section(cfg.section("signal"), str(cfg.source or name_or_path), overrides)
