@@ -87,7 +87,15 @@ def settings_from_section(section: Mapping[str, Any], where: str = "[signal]",
 
 
 def settings_from_config(name_or_path: str | Path, overrides: Mapping[str, Any] | None = None):
-    """``(TESettings, ReadSettings)`` from the ``[signal]`` section of a gear configuration."""
+    """``(TESettings, ReadSettings)`` from the ``[signal]`` section of a gear configuration.
+
+    Parameters
+    ----------
+    name_or_path : str or Path
+        Bundled config name or TOML file (:func:`gearrom.config.load_config`).
+    overrides : mapping, optional
+        Values replacing the section's (same keys); None values are ignored.
+    """
     from gearrom.config import load_config
 
     cfg = load_config(name_or_path, check=False)

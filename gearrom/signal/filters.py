@@ -87,14 +87,44 @@ def bessel_lowpass(x: np.ndarray, fs_hz: float, cutoff_hz: float, order: int = 4
 
 
 def highpass(x: np.ndarray, fs_hz: float, cutoff_hz: float, order: int = 2, *, zero_phase: bool = True) -> np.ndarray:
-    """Butterworth high-pass (drift removal), cut-off at -3 dB of one pass."""
+    """Butterworth high-pass (drift removal), cut-off at -3 dB of one pass.
+
+    Parameters
+    ----------
+    x : ndarray
+        Signal sampled at ``fs_hz``.
+    fs_hz, cutoff_hz : float
+        Sampling rate and cut-off, Hz.
+    order : int
+        Filter order.
+    zero_phase : bool
+        Forward-backward (sosfiltfilt) instead of causal (sosfilt).
+
+    Returns
+    -------
+    ndarray
+    """
     _check_fc(cutoff_hz, fs_hz, "high-pass")
     sos = signal.butter(order, cutoff_hz, btype="highpass", output="sos", fs=fs_hz)
     return signal.sosfiltfilt(sos, x) if zero_phase else signal.sosfilt(sos, x)
 
 
 def apply_filters(x: np.ndarray, fs_hz: float, settings: FilterSettings) -> np.ndarray:
-    """Detrend, high-pass and low-pass ``x`` as ``settings`` say (returns a new array)."""
+    """Detrend, high-pass and low-pass ``x`` as ``settings`` say.
+
+    Parameters
+    ----------
+    x : ndarray
+        Signal.
+    fs_hz : float
+        Its sampling rate, Hz.
+    settings : FilterSettings
+
+    Returns
+    -------
+    ndarray
+        A new array.
+    """
     y = np.asarray(x, dtype=np.float64)
     if settings.detrend != "none":
         y = signal.detrend(y, type=settings.detrend)

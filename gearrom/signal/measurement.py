@@ -324,7 +324,30 @@ def write_meta(path_json: str | Path, *, data: str, kind: Kind, rpm_in: float, c
                edges_per_rev: tuple[int, int] | None = None, locations: tuple[str, str] = ("sensor", "sensor"),
                torque_out_Nm: float | None = None, description: str = "", config: str | None = None,
                extra: dict | None = None) -> Path:
-    """Write only the JSON metadata (for data files written separately, e.g. by :class:`EdgeCSVWriter`)."""
+    """Write only the JSON metadata (for data files written separately, e.g. by :class:`EdgeCSVWriter`).
+
+    Parameters
+    ----------
+    path_json : str or Path
+        The JSON file to write.
+    data : str
+        Data file name, relative to the JSON.
+    kind : {"edges", "angles"}
+    rpm_in : float
+        Nominal input speed, rpm.
+    clock_hz : float, optional
+        Time-stamp clock (kind "edges").
+    edges_per_rev : (int, int), optional
+        Input and output edges per revolution (kind "edges").
+    locations : (str, str)
+        Encoder locations.
+    torque_out_Nm, description, config, extra
+        Optional metadata.
+
+    Returns
+    -------
+    Path
+    """
     doc: dict[str, Any] = {"format": FORMAT, "description": description, "rpm_in": float(rpm_in)}
     if torque_out_Nm is not None:
         doc["torque_out_Nm"] = float(torque_out_Nm)

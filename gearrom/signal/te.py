@@ -133,7 +133,22 @@ class TESettings:
 
 def te_from_angles(theta_in_rad: np.ndarray, theta_out_rad: np.ndarray, mesh: GearMeshInfo,
                    te_on: Literal["line", "pitch"] = "line") -> np.ndarray:
-    """Raw TE ``r_in*theta_in - r_out*theta_out`` in m (offsets and slope not removed)."""
+    """Raw TE ``r_in*theta_in - r_out*theta_out`` in m (offsets and slope not removed).
+
+    Parameters
+    ----------
+    theta_in_rad, theta_out_rad : ndarray
+        Shaft angles, rad, each positive in its direction of rotation.
+    mesh : GearMeshInfo
+        Gear data.
+    te_on : {"line", "pitch"}
+        Base radii (line of action) or pitch radii.
+
+    Returns
+    -------
+    ndarray
+        TE in m, positive when the output lags.
+    """
     r_in, r_out = mesh.radii(te_on)
     return r_in * np.asarray(theta_in_rad) - r_out * np.asarray(theta_out_rad)
 
