@@ -139,9 +139,8 @@ def quarter_ball_hex8(radius: float, n_xy: int, n_z: int, h_pole: float):
     """Hex8 mesh of the quarter ball x >= 0, y >= 0 (centre at the origin), graded to the south pole.
 
     A graded tensor grid of the box [0,1] x [0,1] x [-1,1] is mapped to the ball by
-    p -> radius p ((1 - w) + w max|p_i| / |p|), w = max|p_i| (identity at the centre, cube shells
-    onto spheres at the surface; monotone along every ray); cells are smallest (about ``h_pole``)
-    at the pole (0, 0, -radius) and never smaller than that inside. Returns (nodes, elements, surface_ids) where surface_ids are the
+    p -> radius p max|p_i| / |p| (cube shells onto spheres, linear along every ray); cells are
+    smallest (about ``h_pole``) at the pole (0, 0, -radius). Returns (nodes, elements, surface_ids) where surface_ids are the
     nodes on the spherical surface.
     """
     if not 0 < h_pole < radius:
@@ -151,6 +150,6 @@ def quarter_ball_hex8(radius: float, n_xy: int, n_z: int, h_pole: float):
     p, elements = grid_hex8(t, t, z)
     inf = np.abs(p).max(axis=1)
     nrm = np.linalg.norm(p, axis=1)
-    scale = (1.0 - inf) + inf * np.divide(inf, nrm, out=np.zeros_like(inf), where=nrm > 0)
+    scale = np.divide(inf, nrm, out=np.zeros_like(inf), where=nrm > 0)
     nodes = radius * p * scale[:, None]
     return nodes, elements, np.nonzero(np.isclose(inf, 1.0))[0]
