@@ -58,8 +58,6 @@ def sweep_settings(cfg, args) -> dict:
 
 
 def run(args: argparse.Namespace) -> int:
-    from gearrom.rom.frf import gmf_estimate
-    from gearrom.rom.rig import build_rig
     from gearrom.rom.sweep import parse_rpm, run_sweep
 
     with warnings.catch_warnings():
@@ -70,20 +68,14 @@ def run(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     res = run_sweep(args.config, rpms, args.out, torque_out=args.torque, processes=st["processes"],
                     n_output_revs=float(st["output_revolutions"]), samples_per_mesh=st["samples_per_mesh"],
-                    progress=not args.no_progress)
+                    progress=not args.no_progress, linear=not args.no_linear)
     wall = time.perf_counter() - t0
-    linear = None
-    if not args.no_linear:
-        model = build_rig(cfg, torque_out=args.torque)
-        linear = gmf_estimate(model, rpms, args.torque)
-        for s, lin in zip(res.summary, linear):
-            s["linear_gmf_amplitude_um"] = [float(v * 1e6) for v in lin]
     res.save(args.out / "sweep.nc")
     summary = res.summary_json()
     (args.out / "summary.json").write_text(json.dumps(summary, indent=1) + "\n")
     import matplotlib.pyplot as plt
 
-    for name, fig in (("waterfall.png", res.plot()), ("gmf_vs_speed.png", res.plot_gmf(linear))):
+    for name, fig in (("waterfall.png", res.plot()), ("gmf_vs_speed.png", res.plot_gmf())):
         fig.savefig(args.out / name, dpi=120)
         plt.close(fig)
     n_loss = sum(s["contact_loss"] for s in res.summary)

@@ -52,13 +52,15 @@ def _first_order_eigs(M, K, C):
 
 
 def modal_analysis(model: Drivetrain, rpm_in: float = 0.0, torque_out: float | None = None,
-                   fmax: float | None = None) -> ModalResult:
+                   fmax: float | None = None, damping: bool = True) -> ModalResult:
     """Modes of ``model`` at ``rpm_in`` with the mean mesh stiffness at ``torque_out`` [N m].
 
     Parameters
     ----------
     fmax : float, optional
         Keep modes up to this frequency [Hz] (default all).
+    damping : bool
+        Also solve the damped problem for the damping ratios (else NaN).
     """
     torque = float(model.metadata.get("torque_out_Nm", 120.0) if torque_out is None else torque_out)
     M, K, D = model.linear(rpm_in, torque)
@@ -74,6 +76,10 @@ def modal_analysis(model: Drivetrain, rpm_in: float = 0.0, torque_out: float | N
     k = model.excitation.mean_stiffness(torque)
     strain = np.real(np.einsum("im,ij,jm->m", vec.conj(), K, vec))
     share = k * np.abs(model.w @ vec) ** 2 / np.maximum(strain, 1e-300)
+    if not damping:
+        zeta = np.full(freqs.shape, np.nan)
+        shapes = vec / vec[np.argmax(np.abs(vec), axis=0), np.arange(vec.shape[1])]
+        return ModalResult(float(rpm_in), freqs, zeta, shapes, np.clip(share, 0.0, 1.0), model.dof_labels())
     # damping ratios from the damped problem, matched by frequency
     lam_d, _ = _first_order_eigs(M, K, D)
     fd = np.abs(lam_d) / (2 * math.pi)
@@ -165,7 +171,7 @@ def campbell(model: Drivetrain, rpm, torque_out: float | None = None, fmax: floa
     orders = {f"GMF{m}": float(m * z1) for m in range(1, gmf_orders + 1)}
     orders.update({"input shaft": 1.0, "output shaft": z1 / z2})
     fmax = fmax or 1.2 * gmf_orders * z1 * rpm.max() / 60
-    res = [modal_analysis(model, r, torque_out, fmax=fmax) for r in rpm]
+    res = [modal_analysis(model, r, torque_out, fmax=fmax, damping=False) for r in rpm]
     n = min(len(r.freqs) for r in res)
     F = np.array([r.freqs[:n] for r in res])
     S = np.array([r.mesh_share[:n] for r in res])

@@ -64,13 +64,15 @@ def _point_summary(run, orders: int = 3) -> dict:
             "gmf_amplitude_um": [float(v * 1e6) for v in run.gmf_amplitudes("sensor", orders)],
             "contact_loss": run.contact_loss, "dynamic_factor": run.dynamic_factor,
             "dte_clutch_ptp_um": float(np.ptp(run.dte["clutch"]) * 1e6) if "clutch" in run.dte else None,
-            "wall_s": run.metadata.get("wall_s"), "simulated_s": run.metadata.get("simulated_s")}
+            "wall_s": run.metadata.get("wall_s"), "cpu_s": run.metadata.get("cpu_s"),
+            "simulated_s": run.metadata.get("simulated_s")}
 
 
 def _run_one(task: tuple) -> dict:
-    config_ref, rpm, torque, n_revs, spm, path, stamp = task
+    config_ref, rpm, torque, n_revs, spm, path, stamp, linear = task
     import xarray as xr
 
+    from gearrom.rom.frf import gmf_estimate
     from gearrom.rom.simulate import simulate_run
 
     with warnings.catch_warnings():
@@ -81,6 +83,8 @@ def _run_one(task: tuple) -> dict:
     run = simulate_run(model, rpm, torque, n_output_revs=n_revs, sample_rate_hz=fs)
     n = int(round(n_revs * model.pair.z[1])) * spm
     summary = _point_summary(run)
+    if linear:
+        summary["linear_gmf_amplitude_um"] = [float(v * 1e6) for v in gmf_estimate(model, [rpm], torque)[0]]
     data = {"dte_sensor": run.dte["sensor"], "dte_clutch": run.dte.get("clutch", np.full_like(run.delta, np.nan)),
             "delta": run.delta, "force": run.force, "ste": run.ste}
     ds = xr.Dataset({k: ("sample", np.asarray(v[:n], dtype=float)) for k, v in data.items()},
@@ -198,8 +202,15 @@ class SweepResult:
         fig.tight_layout()
         return fig
 
+    def linear_gmf(self) -> np.ndarray | None:
+        """The python-control linear GMF estimate per speed [m] (n_rpm, 3), when the sweep computed it."""
+        if not all("linear_gmf_amplitude_um" in s for s in self.summary):
+            return None
+        return np.array([s["linear_gmf_amplitude_um"] for s in self.summary]) * 1e-6
+
     def plot_gmf(self, linear: np.ndarray | None = None):
-        """GMF harmonic amplitudes vs speed (time domain), with the linear state-space estimate if given."""
+        """GMF harmonic amplitudes vs speed (time domain), with the linear state-space estimate overlaid."""
+        linear = self.linear_gmf() if linear is None else linear
         import matplotlib
 
         matplotlib.use("Agg")
@@ -223,7 +234,7 @@ class SweepResult:
 
 def run_sweep(config_ref: str | Path, rpms, out_dir: str | Path, *, torque_out: float | None = None,
               processes: int = 2, n_output_revs: float = 2.0, samples_per_mesh: int = 32,
-              progress: bool = True) -> SweepResult:
+              progress: bool = True, linear: bool = True) -> SweepResult:
     """Run (or resume) a sweep and write ``OUT/speeds/*.nc``; returns the collected :class:`SweepResult`.
 
     Parameters
@@ -234,6 +245,8 @@ def run_sweep(config_ref: str | Path, rpms, out_dir: str | Path, *, torque_out: 
         Input speeds [rpm].
     processes : int
         Worker processes (1 runs in this process).
+    linear : bool
+        Also evaluate the python-control linear GMF estimate per speed (``linear_gmf_amplitude_um``).
     """
     from gearrom.config import load_config
 
@@ -246,7 +259,7 @@ def run_sweep(config_ref: str | Path, rpms, out_dir: str | Path, *, torque_out: 
         raise ConfigError(f"samples_per_mesh must be >= 4 and n_output_revs > 0 (got {samples_per_mesh}, {n_output_revs})")
     out = Path(out_dir)
     (out / "speeds").mkdir(parents=True, exist_ok=True)
-    stamp = f"{cfg.digest()}|T={torque}|revs={n_output_revs}|spm={samples_per_mesh}"
+    stamp = f"{cfg.digest()}|T={torque}|revs={n_output_revs}|spm={samples_per_mesh}|linear={linear}"
     rpms = np.asarray(rpms, dtype=float)
     paths = [out / "speeds" / f"rpm_{r:08.2f}.nc" for r in rpms]
     done = {}
@@ -255,7 +268,8 @@ def run_sweep(config_ref: str | Path, rpms, out_dir: str | Path, *, torque_out: 
             got = _read_point(p, stamp)
             if got is not None:
                 done[r] = got[0]
-    todo = [(ref, float(r), torque, n_output_revs, samples_per_mesh, p, stamp) for r, p in zip(rpms, paths) if r not in done]
+    todo = [(ref, float(r), torque, n_output_revs, samples_per_mesh, p, stamp, linear)
+            for r, p in zip(rpms, paths) if r not in done]
     if done:
         log.info("resuming: %d of %d speeds already done", len(done), len(rpms))
     from tqdm import tqdm
