@@ -69,7 +69,7 @@ class Drivetrain:
     motor_station: str | None = None
     load_station: str | None = None
     cutoff_frequency: float = 12e3
-    max_step: float = 2e-5
+    max_step: float = 1e-5
     metadata: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:

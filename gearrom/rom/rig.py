@@ -39,7 +39,7 @@ DEFAULTS: dict[str, dict[str, Any]] = {
     "load": {"inertia_kg_m2": 0.05},
 }
 ROM_DEFAULTS = {"mesh_damping_ratio": 0.05, "shaft_damping_beta_us": 2.0, "backlash_um": 50.0,
-                "cutoff_frequency_kHz": 12.0, "max_step_us": 20.0, "excitation": "analytical",
+                "cutoff_frequency_kHz": 12.0, "max_step_us": 10.0, "excitation": "analytical",
                 "excitation_torques_Nm": [], "n_theta": 256}
 
 

@@ -157,10 +157,16 @@ def simulate_run(config_or_model, rpm_in: float, torque_out_Nm: float | None = N
         load = mbs.AddLoad(LoadCoordinate(markerNumber=m_brake, load=0.0))
     # mesh parameters at every step midpoint, precomputed (vectorised): the pre-step function only
     # indexes them, which keeps the Python work per step to two parameter updates
-    tm = (np.arange(n_steps + 1) + 0.5) * h
+    # step averages (4-point midpoint rule) of k and of the force offset k e0, so that jumps of the table
+    # (pair entry/exit) fall at the right place within a step instead of at the nearest step midpoint
+    sub = (np.arange(4) + 0.5) / 4
+    tm = ((np.arange(n_steps + 1)[:, None] + sub[None, :]) * h).ravel()
     k_arr, e_arr = law.evaluate_array(theta0 + omega * tm, theta0 * z1 / z2 + omega2 * tm)
-    k_list = k_arr.tolist()
-    up_list = (e_arr - f_nom / k_arr).tolist()
+    k_avg = k_arr.reshape(-1, 4).mean(axis=1)
+    f0_avg = (k_arr * e_arr - f_nom).reshape(-1, 4).mean(axis=1)
+    k_list = k_avg.tolist()
+    up_list = (f0_avg / k_avg).tolist()
+    tm = (np.arange(n_steps + 1) + 0.5) * h
     rip_list = [law.ripple(a) for a in theta0 * z1 / z2 + omega2 * tm] if load is not None else None
     inv_h = 1.0 / h
     set_par = mbs.SetObjectParameter
