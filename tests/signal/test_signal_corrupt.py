@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import MESH, assert_components, synth_angles
+from signal_synth import MESH, assert_components, synth_angles
 from gearrom.errors import MeasurementError
 from gearrom.signal import AngleRecord, EdgeRecord, ReadSettings, load_angles, process_measurement, write_measurement
 

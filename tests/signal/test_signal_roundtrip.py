@@ -11,12 +11,14 @@ import math
 import numpy as np
 import pytest
 
-from conftest import COMPONENTS, MESH, assert_components, synth_angles, write_run
+from signal_synth import COMPONENTS, MESH, assert_components, synth_angles, write_run
 from gearrom.signal import (AngleRecord, FilterSettings, TEResult, TESettings, load_angles, process_measurement,
                             write_measurement)
 
 
-@pytest.mark.parametrize(("rpm", "edges_per_rev"), [(60.0, 4000), (1250.0, 10000), (5000.0, 40000)])
+@pytest.mark.parametrize(("rpm", "edges_per_rev"), [
+    (60.0, 4000), (1250.0, 10000), (5000.0, 40000),
+    pytest.param(60.0, 40000, marks=pytest.mark.slow), pytest.param(1250.0, 40000, marks=pytest.mark.slow)])
 def test_round_trip_edges_csv(tmp_path, rpm, edges_per_rev):
     path = write_run(tmp_path / "run.json", rpm, edges_per_rev)
     res = process_measurement(path, MESH)

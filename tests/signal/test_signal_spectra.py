@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from conftest import MESH
+from signal_synth import MESH
 from gearrom.errors import ConfigError
 from gearrom.signal import (AngleRecord, FilterSettings, GearMeshInfo, ReadSettings, Spectrum, amplitude_spectrum, annotate_gmf,
                             bessel_lowpass, emulate_edges, highpass, order_spectrum, process_measurement,
@@ -162,7 +162,7 @@ def test_edge_interpolation_attenuation(tmp_path):
     """Coarse encoders (1000 edges/rev): the 3rd GMF harmonic rides on the output channel, which turns
     z1/z2 slower, so it has p = 1000 / (96 * 41/32) = 8.13 output edges per period. Linear interpolation between edges (uniformly distributed grid positions) passes
     sinc^2(pi/p) = 0.951; the cubic Hermite recovers the amplitude within 1 %."""
-    from conftest import write_run
+    from signal_synth import write_run
 
     path = write_run(tmp_path / "c.json", 1250.0, 1000)
     p = 1000 / (96 * 41 / 32)
