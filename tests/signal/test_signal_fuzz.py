@@ -50,7 +50,7 @@ line_ops = st.lists(st.tuples(st.sampled_from(["delete", "duplicate", "swap", "r
 
 
 @pytest.mark.parametrize("kind", ["csv", "angles"])
-@settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=80, deadline=None, database=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(ops=line_ops, truncate=st.one_of(st.none(), st.integers(0, 60_000)),
        flips=st.lists(st.tuples(st.integers(0, 60_000), st.integers(0, 255)), max_size=4))
 def test_csv_mutations_raise_only_measurement_error(base, kind, ops, truncate, flips):
@@ -94,7 +94,7 @@ json_values = st.recursive(st.none() | st.booleans() | st.integers() | st.floats
                            max_leaves=8)
 
 
-@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=150, deadline=None, database=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(edits=st.lists(st.tuples(st.sampled_from(["format", "rpm_in", "kind", "data", "clock_hz", "encoders",
                                                  "config", "extra", "description", "torque_out_Nm", "bogus",
                                                  "encoders.input", "encoders.output.edges_per_rev"]),
@@ -120,7 +120,7 @@ def test_json_mutations_raise_only_measurement_error(base, edits, raw):
         _try(Path(d) / "x.json")
 
 
-@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=60, deadline=None, database=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(truncate=st.one_of(st.none(), st.integers(0, 40_000)),
        flips=st.lists(st.tuples(st.integers(0, 40_000), st.integers(0, 255)), max_size=6))
 def test_tdms_corruption_raises_only_measurement_error(base, truncate, flips):
@@ -142,7 +142,7 @@ def test_base_files_are_valid(base):
         assert load_angles(path, READ).t_s.size > 100
 
 
-@settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=100, deadline=None, database=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(name=st.text(max_size=300))
 def test_random_data_file_names(base, name):
     doc = json.loads(base["csv"].read_text())
