@@ -106,3 +106,17 @@ def test_reader_chunking_invariant(base_run):
     many = load_angles(base_run, ReadSettings(chunk_rows=1000))
     np.testing.assert_array_equal(one.t_s, many.t_s)
     np.testing.assert_allclose(many.theta_out_rad, one.theta_out_rad, rtol=0, atol=1e-12)
+
+
+def test_tdms_integer_ticks(tmp_path):
+    """TDMS edge channels holding integer counter ticks are divided by clock_hz: same angles as float seconds."""
+    from nptdms import ChannelObject, TdmsFile, TdmsWriter
+
+    path = write_run(tmp_path / "f.json", 1250.0, 2000, revs=3, data_format="tdms")
+    ref = load_angles(path)
+
+    with TdmsFile.open(str(tmp_path / "f.tdms")) as f:
+        ticks = {ch: np.round(f["edges"][ch][:] * 80e6).astype(np.int64) for ch in ("input", "output")}
+    with TdmsWriter(str(tmp_path / "f.tdms")) as w:
+        w.write_segment([ChannelObject("edges", ch, v) for ch, v in ticks.items()])
+    np.testing.assert_allclose(load_angles(path).theta_out_rad, ref.theta_out_rad, rtol=0, atol=1e-12)
