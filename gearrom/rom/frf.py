@@ -83,3 +83,28 @@ def gmf_estimate(model: Drivetrain, rpms, torque_out: float | None = None, order
         resp = np.asarray(sys.frequency_response(om).complex).reshape(sys.noutputs, 1, orders)
         out[i] = np.abs(resp[j, 0, :]) * np.abs(harm)
     return out
+
+
+def plot_transfer(model: Drivetrain, rpm_in: float, torque_out: float | None = None, fmax: float = 10e3,
+                  n: int = 800):
+    """Bode magnitude of DTE (sensor, clutch) and mesh deflection per unit STE, with GMF orders marked."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    sys = state_space(model, rpm_in, torque_out)
+    f = np.linspace(1.0, fmax, n)
+    resp = np.asarray(sys.frequency_response(2 * math.pi * f).complex).reshape(sys.noutputs, 1, n)
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    for j, name in enumerate(sys.output_labels):
+        ax.semilogy(f, np.abs(resp[j, 0]), lw=0.9, label=f"{name} / STE")
+    gmf = model.pair.z[0] * rpm_in / 60
+    for m in (1, 2, 3):
+        ax.axvline(m * gmf, color="k", ls=":", lw=0.7)
+    ax.set_xlabel("frequency [Hz]")
+    ax.set_ylabel("|H| [m/m]")
+    ax.set_title(f"linear transfer from STE at {rpm_in:.0f} rpm (dotted: GMF x1-3)", fontsize=9)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    return fig

@@ -140,6 +140,17 @@ def pitch_curve(pair: GearPair, gear: int, deviations, n_per_pitch: int = 32) ->
     return sm
 
 
+def _call_vectorised(fn, th1: np.ndarray, th2: np.ndarray) -> np.ndarray:
+    """``fn`` on arrays when it supports them (numpy ufuncs), else element by element."""
+    try:
+        v = np.asarray(fn(th1, th2), dtype=float)
+        if v.shape == th1.shape:
+            return v
+    except (TypeError, ValueError):
+        pass
+    return np.array([float(fn(a, b)) for a, b in zip(th1, th2)])
+
+
 @dataclass
 class MeshLaw:
     """Evaluates ``k`` and ``e`` (with effects) at given drive-sense angles; fast scalar path for the solver."""
@@ -222,7 +233,7 @@ class MeshLaw:
             x = np.mod(ths[gear] * sc, n)
             e = e + np.interp(x, np.arange(n + 1), curve)
         for ex in eff.extra:
-            e = e + np.array([float(ex.fn(a, b)) for a, b in zip(th1, th2)])
+            e = e + _call_vectorised(ex.fn, th1, th2)
         return k, e
 
     def ripple(self, th2: float) -> float:

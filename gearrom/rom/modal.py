@@ -35,8 +35,47 @@ class ModalResult:
         a = np.abs(self.shapes[:, i])
         return [self.labels[j] for j in np.argsort(a)[::-1][:n]]
 
+    def save(self, path: str | Path) -> Path:
+        """Write the modes as JSON (frequencies, damping, mesh share, real parts of the shapes)."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        d = {"rpm_in": self.rpm_in, "modes": self.table(), "labels": self.labels,
+             "shapes_real": np.real(self.shapes).tolist(), "shapes_imag": np.imag(self.shapes).tolist()}
+        path.write_text(json.dumps(d, indent=1) + "\n")
+        return path
+
+    @classmethod
+    def load(cls, path: str | Path) -> "ModalResult":
+        d = json.loads(Path(path).read_text())
+        if "modes" not in d or "shapes_real" not in d:
+            raise ModelError(f"{path}: not a gearrom modes file")
+        m = d["modes"]
+        return cls(d["rpm_in"], np.array([x["frequency_Hz"] for x in m]),
+                   np.array([np.nan if x["damping_ratio"] is None else x["damping_ratio"] for x in m]),
+                   np.array(d["shapes_real"]) + 1j * np.array(d["shapes_imag"]),
+                   np.array([x["mesh_energy_share"] for x in m]), d["labels"])
+
+    def plot(self):
+        """Natural frequencies with their mesh strain-energy share."""
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        fig, ax = plt.subplots(figsize=(8, 4))
+        ax.bar(np.arange(1, len(self.freqs) + 1), self.mesh_share, color="C0")
+        for i, f in enumerate(self.freqs):
+            ax.text(i + 1, self.mesh_share[i] + 0.01, f"{f:.0f}", rotation=90, ha="center", va="bottom", fontsize=7)
+        ax.set_xlabel("mode")
+        ax.set_ylabel("mesh strain-energy share [-] (labels: Hz)")
+        ax.set_ylim(0, 1.15)
+        ax.set_title(f"modes at {self.rpm_in:.0f} rpm", fontsize=9)
+        fig.tight_layout()
+        return fig
+
     def table(self) -> list[dict]:
-        return [{"mode": i + 1, "frequency_Hz": float(f), "damping_ratio": float(z), "mesh_energy_share": float(s),
+        return [{"mode": i + 1, "frequency_Hz": float(f), "damping_ratio": None if np.isnan(z) else float(z),
+                 "mesh_energy_share": float(s),
                  "dominant_dofs": self.dominant(i)} for i, (f, z, s) in enumerate(zip(self.freqs, self.damping, self.mesh_share))]
 
 

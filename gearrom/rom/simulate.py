@@ -71,7 +71,8 @@ def simulate_run(config_or_model, rpm_in: float, torque_out_Nm: float | None = N
     duration_s, n_output_revs : float, optional
         Recorded length, as time [s] or output revolutions (default 2 output revolutions).
     effects : Effects, optional
-        Runout, pitch deviations, extra TE, load ripple.
+        Runout, pitch deviations, extra TE, load ripple. Default: the runout and pitch deviations of
+        the config's *enabled* gear micro-geometry (:meth:`Effects.from_pair`); ``Effects()`` for none.
     sample_rate_hz : float, optional
         Output sample rate (default: 64 samples per mesh period).
     settle_s : float, optional
@@ -106,7 +107,7 @@ def simulate_run(config_or_model, rpm_in: float, torque_out_Nm: float | None = N
     torque = float(model.metadata.get("torque_out_Nm", 120.0) if torque_out_Nm is None else torque_out_Nm)
     if not torque > 0:
         raise ModelError(f"torque_out_Nm must be positive, got {torque!r}")
-    effects = effects or Effects()
+    effects = Effects.from_pair(model.pair) if effects is None else effects
     z1, z2 = model.pair.z
     omega = rpm_in * 2 * math.pi / 60
     omega2 = omega * z1 / z2
