@@ -113,3 +113,16 @@ def test_components_in_exudyn_match_assembly(rig):
     M0, K0, D0 = rig.linear(0.0, 120.0)
     for a, b in ((M, M0), (K, K0), (D, D0)):
         assert np.abs(a - b).max() <= 1e-12 * np.abs(b).max()
+
+
+def test_effects_from_enabled_microgeometry(tmp_path):
+    p = tmp_path / "ro.toml"
+    p.write_text('extends = "thesis-rig"\n[output_gear.microgeometry]\nenabled = true\nrunout_um = 22.0\n'
+                 'runout_phase_deg = 90.0\n')
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        cfg = load_config(p)
+    eff = Effects.from_pair(cfg.pair)
+    assert len(eff.runout) == 1 and eff.runout[0].gear == 1
+    assert eff.runout[0].eccentricity == pytest.approx(11e-6)  # F_r / 2
+    assert eff.runout[0].phase == pytest.approx(math.pi / 2)

@@ -76,3 +76,13 @@ def test_campbell_cli(tmp_path, capsys):
     assert d["modes"][0]["frequency_Hz"] > 50 and "crossings" in d
     assert (tmp_path / "c.png").stat().st_size > 0
     assert "mesh E" in capsys.readouterr().out
+
+
+def test_modal_result_round_trip(tmp_path):
+    from gearrom.rom.modal import ModalResult
+
+    m = modal_analysis(build_rig("thesis-rig"), 500.0, fmax=5e3)
+    back = ModalResult.load(m.save(tmp_path / "modes.json"))
+    np.testing.assert_allclose(back.freqs, m.freqs)
+    np.testing.assert_allclose(back.shapes, m.shapes)
+    assert m.plot().axes
