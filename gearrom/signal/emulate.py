@@ -51,7 +51,7 @@ def emulate_channel(t_s: np.ndarray, theta_rad: np.ndarray, edges_per_rev: int, 
     t_s : ndarray
         Time samples of the history, s, increasing.
     theta_rad : ndarray
-        Shaft angle at ``t_s``, rad, strictly increasing (rotation in one direction).
+        Shaft angle at ``t_s``, rad, non-decreasing (rotation in one direction; standstill allowed).
     edges_per_rev : int
         Counted edges per revolution (lines x decoding factor).
     clock_hz : float or None
@@ -79,7 +79,7 @@ def emulate_channel(t_s: np.ndarray, theta_rad: np.ndarray, edges_per_rev: int, 
     Raises
     ------
     MeasurementError
-        The history is not finite or not strictly increasing (names the index and time).
+        The history is not finite, the time not increasing or the angle decreasing (names index and time).
     """
     t = np.asarray(t_s, dtype=np.float64)
     th = np.asarray(theta_rad, dtype=np.float64)
@@ -88,12 +88,21 @@ def emulate_channel(t_s: np.ndarray, theta_rad: np.ndarray, edges_per_rev: int, 
     if not (np.isfinite(t).all() and np.isfinite(th).all()):
         i = int(np.argmin(np.isfinite(t) & np.isfinite(th)))
         raise MeasurementError(f"{name}: non-finite value at index {i}")
-    for arr, what in ((t, "t_s"), (th, name)):
-        bad = np.flatnonzero(np.diff(arr) <= 0)
-        if bad.size:
-            i = int(bad[0]) + 1
-            raise MeasurementError(f"{what} is not strictly increasing at index {i} (t={t[i]:.9g} s); the "
-                                   "encoder emulation needs rotation in one direction")
+    bad = np.flatnonzero(np.diff(t) <= 0)
+    if bad.size:
+        i = int(bad[0]) + 1
+        raise MeasurementError(f"t_s is not strictly increasing at index {i} (t={t[i]:.9g} s)")
+    step = np.diff(th)
+    bad = np.flatnonzero(step < 0)
+    if bad.size:
+        i = int(bad[0]) + 1
+        raise MeasurementError(f"{name} decreases at index {i} (t={t[i]:.9g} s); the encoder emulation needs "
+                               "rotation in one direction")
+    if not step.all():  # standstill: keep the last sample of each plateau (when the shaft moves off)
+        keep = np.concatenate([step > 0, [True]])
+        t, th = t[keep], th[keep]
+        if t.size < 2:
+            return np.empty(0)
     rng = np.random.default_rng(rng)
     n = int(edges_per_rev)
     dth = 2.0 * math.pi / n
@@ -146,7 +155,7 @@ def emulate_edges(t_s: np.ndarray, theta_in_rad: np.ndarray, theta_out_rad: np.n
     t_s : ndarray
         Time samples, s.
     theta_in_rad, theta_out_rad : ndarray
-        Input and output shaft angles at ``t_s``, rad, increasing (each in its own sense of rotation).
+        Input and output shaft angles at ``t_s``, rad, non-decreasing (each in its own sense of rotation).
     edges_per_rev : int or (int, int)
         Counted edges per revolution, one value or ``(input, output)``.
     clock_hz : float

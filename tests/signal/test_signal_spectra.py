@@ -170,3 +170,21 @@ def test_edge_interpolation_attenuation(tmp_path):
     assert lin.gmf_lines()[2][0] / 1e-6 == pytest.approx(np.sinc(1 / p) ** 2, rel=3e-3)
     cub = process_measurement(path, MESH)
     assert cub.gmf_lines()[2][0] / 1e-6 == pytest.approx(1.0, rel=0.01)
+
+
+def test_emulation_from_standstill():
+    """A run-up from rest (plateau until t0): edge j when theta = 0.5 a (t - t0)^2 reaches j 2 pi/N,
+    i.e. t = t0 + sqrt(2 j (2 pi/N) / a) (analytic); the line the shaft rests on counts when it moves off."""
+    from gearrom.errors import MeasurementError
+    from gearrom.signal import emulate_channel
+
+    a, t0, n = 50.0, 0.1, 360
+    t = np.linspace(0, 1.0, 20_001)
+    th = 0.5 * a * np.clip(t - t0, 0, None) ** 2
+    edges = emulate_channel(t, th, n, clock_hz=None)
+    j = np.arange(edges.size)
+    exact = t0 + np.sqrt(2 * j * (2 * math.pi / n) / a)
+    assert edges[0] == pytest.approx(t0, abs=1e-4)  # history step 5e-5 s
+    np.testing.assert_allclose(edges[5:], exact[5:], atol=2e-6)
+    with pytest.raises(MeasurementError, match="decreases at index 3"):
+        emulate_channel(t[:5], np.array([0, 1, 2, 1.5, 3.0]), n)
