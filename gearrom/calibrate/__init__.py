@@ -1,0 +1,27 @@
+"""Close the loop with measured data: residual, traced effect, added effect, error before and after.
+
+Pipeline (:func:`diagnose`): measured runs (``gearrom.measurement/1``) -> :mod:`.residual` (same TE
+processing for model and measurement, honest mesh-phase alignment) -> :mod:`.model` (nominal
+simulation and drivetrain sensitivities per run) -> :mod:`.fit` / :mod:`.select` (library
+candidates ranked by the residual they explain, bounded fits, ambiguities) -> verification
+re-simulation -> :mod:`.characterize` (orders, sidebands, fixed vs tracking, unexplained lines) ->
+:class:`DiagnosisResult` (JSON, text, plots, save/load).
+
+Models: :class:`~gearrom.calibrate.simulator.Simulator` protocol; the exudyn ROM through
+:class:`~gearrom.calibrate.simulator.RomSimulator` when it has the hooks, else the torsional rig
+model :class:`~gearrom.calibrate.rig.TorsionalRig`. Micro-geometry through
+:class:`~gearrom.calibrate.microgeom.SliceMicroModel` until the FE tables exist.
+"""
+from gearrom.calibrate.diagnose import diagnose
+from gearrom.calibrate.effects import LIBRARY, Effect, EffectSpec, check_name
+from gearrom.calibrate.fit import FitSettings
+from gearrom.calibrate.microgeom import MicroGeometryModel, MicroMods, SliceMicroModel
+from gearrom.calibrate.report import DiagnosisResult
+from gearrom.calibrate.rig import RigParams, TorsionalRig
+from gearrom.calibrate.simulator import (ModelChanges, RomSimulator, RunConditions, SimHistory, Simulator,
+                                         default_simulator)
+from gearrom.calibrate.synthetic import Injected, make_run
+
+__all__ = ["LIBRARY", "DiagnosisResult", "Effect", "EffectSpec", "FitSettings", "Injected", "MicroGeometryModel",
+           "MicroMods", "ModelChanges", "RigParams", "RomSimulator", "RunConditions", "SimHistory", "SliceMicroModel",
+           "Simulator", "TorsionalRig", "check_name", "default_simulator", "diagnose", "make_run"]

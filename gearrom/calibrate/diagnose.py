@@ -32,6 +32,7 @@ from gearrom.signal import GearMeshInfo, ReadSettings
 log = logging.getLogger(__name__)
 UM = 1e-6
 UNEXPLAINED_SHARE = 0.05  # an unexplained line must exceed 5 % of the largest residual line before the fit
+UNEXPLAINED_NOISE = 2.0  # ... and twice the broadband noise rms (lines at noise level are not reported)
 
 
 def diagnose(config: str | Path, measurements: Sequence[str | Path], *, simulator=None,
@@ -173,6 +174,7 @@ def _assemble(ctx: Context, config, sim, D, accepted, steps, after) -> Diagnosis
     # unexplained: lines left in the after-residual, grouped across runs
     floors = [UNEXPLAINED_SHARE * max([a for _, a in chz.spectral_peaks(rb, m.run.fs_hz, m.noise_m)] or [0.0])
               for rb, m in zip(res_b, models)]
+    floors = [max(fl, UNEXPLAINED_NOISE * m.noise_m) for fl, m in zip(floors, models)]
     peaks = [chz.spectral_peaks(ra, m.run.fs_hz, m.noise_m, floor_m=fl) for ra, m, fl in zip(res_a, models, floors)]
     unexplained = chz.classify_peaks([m.run for m in models], peaks)
     peaks_b = [chz.spectral_peaks(rb, m.run.fs_hz, m.noise_m) for rb, m in zip(res_b, models)]

@@ -15,8 +15,8 @@ of every run from its parameters, through the run's model sensitivities (:mod:`.
 The stacked, weighted residual of all runs (te weight 1, channels ``channel_weight``) is fitted
 by each candidate alone (bounded least squares: :func:`scipy.optimize.lsq_linear` for the linear
 ones, bounded scalar search for the others). Forward selection adds the candidate that removes the
-most residual energy while it is significant (``kappa`` noise variances per parameter and at least
-``min_fraction`` of what is left); a candidate whose explained energy falls short of the best by
+most residual energy while it is significant (``kappa`` noise variances per parameter, at least
+``min_fraction`` of what is left and ``min_total_fraction`` of the initial residual); a candidate whose explained energy falls short of the best by
 less than ``max(2 kappa noise variances per parameter, ambiguity x best)`` is reported as not
 separable from it by these data.
 """
@@ -27,17 +27,17 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import signal
-from scipy.optimize import lsq_linear, minimize_scalar
+from scipy.optimize import lsq_linear, minimize, minimize_scalar
 
 from gearrom.calibrate.effects import LIBRARY, amp_phase, load_share_window
 from gearrom.calibrate.microgeom import MicroMods
 from gearrom.calibrate.model import N_TABLE, RunModel
-from gearrom.calibrate.residual import map_to_run
+from gearrom.calibrate.residual import detrend, map_to_run
 from gearrom.calibrate.simulator import ModelChanges
 
 log = logging.getLogger(__name__)
 UM = 1e-6
+N_MESH_HARMONICS = 6  # GMF harmonics a flank modification is fitted on (where the sensitivity exists)
 
 
 @dataclass(frozen=True)
@@ -47,6 +47,7 @@ class FitSettings:
     channel_weight: float = 0.5
     max_effects: int = 3
     min_fraction: float = 0.15
+    min_total_fraction: float = 0.002
     kappa: float = 25.0
     ambiguity: float = 0.01
     shared_shaft_phase: bool = True
@@ -91,7 +92,7 @@ class Context:
         key = (round(torque, 6), mods)
         if key not in self._ste:
             ex = self.micro_model.excitation(self.pair, [torque], mods)
-            self._ste[key] = ex.harmonics(torque, 3).ste[1:]
+            self._ste[key] = ex.harmonics(torque, N_MESH_HARMONICS).ste[1:]
         return self._ste[key]
 
 
@@ -137,7 +138,7 @@ def _linear_fit(cand, ctx: Context, cols: list, R: np.ndarray, lo, hi, info=None
 
 def _dt(a: np.ndarray, axis: int = -1) -> np.ndarray:
     """The linear detrend every measured signal went through (offset and slope over the record)."""
-    return signal.detrend(a, axis=axis)
+    return detrend(a, axis=axis)
 
 
 def _shaft(target: str) -> str:
@@ -178,6 +179,10 @@ class OncePerRev(Candidate):
         cols = self._cols(ctx)
         b = self.bound
         return _linear_fit(self, ctx, cols, R, -b, b)
+
+    def linear_columns(self, ctx, info) -> tuple[list, float, float]:
+        """Columns (per-run lists) and bounds for a joint linear refit."""
+        return self._cols(ctx), -self.bound, self.bound
 
     def _amp_phase(self, x):
         pairs = [amp_phase(x[i], x[i + 1]) for i in range(0, len(x), 2)]
@@ -240,6 +245,11 @@ class PitchError(Candidate):
         return Trial(self, np.array([x[k]]), contrib, float(gain[k]), 2, {"tooth_index": k, "z": z,
                                                                             "window": per_run})
 
+    def linear_columns(self, ctx, info) -> tuple[list, float, float]:
+        """The column of the selected tooth (per-run list) and bounds for a joint linear refit."""
+        k = info["tooth_index"]
+        return [[p[:, :, k] for p in info["window"]]], -self.bound, self.bound
+
     def report(self, x, info):
         return {"tooth_index": int(info["tooth_index"]), "deviation_um": float(x[0])}
 
@@ -268,14 +278,14 @@ class Micro(Candidate):
         return -self.bound if self.name == "helix_slope" else 0.0
 
     def _basis(self, ctx: Context):
-        """Per run: real columns (Re V_h, -Im V_h) for h = 1..3 stacked, V_h = H(h z1) e^{i h z1 theta}."""
+        """Per run: complex signals V_h = H(h z1) e^{i h z1 theta} for h = 1..N_MESH_HARMONICS (0 where H is absent)."""
         blocks = []
         for m in ctx.models:
             z1 = m.run.mesh.z1
             orders, H = m.H["input"]
             idx = {int(q): j for j, q in enumerate(orders)}
             cols = []
-            for h in range(1, 4):
+            for h in range(1, N_MESH_HARMONICS + 1):
                 j = idx.get(h * z1)
                 V = (np.zeros((3, m.run.t_s.size), complex) if j is None
                      else H[:, j][:, None] * np.exp(1j * h * z1 * m.run.theta_in_rad)[None, :])
@@ -290,28 +300,28 @@ class Micro(Candidate):
                                                                                           ctx.micro_nominal)
             psi = m.psi if psi_free is None else psi_free
             z1 = m.run.mesh.z1
-            g = d * np.exp(1j * np.arange(1, 4) * z1 * psi)
-            out.append(_dt(sum((g[h] * cols[h]).real for h in range(3))))
+            g = d * np.exp(1j * np.arange(1, N_MESH_HARMONICS + 1) * z1 * psi)
+            out.append(_dt(sum((g[h] * cols[h]).real for h in range(N_MESH_HARMONICS))))
         return out
 
     def fit(self, ctx, R):
         blocks = self._basis(ctx)
         free = not all(m.psi_identifiable for m in ctx.models)
         z1 = ctx.models[0].run.mesh.z1
-        psis = np.linspace(0, 2 * math.pi / z1, 49)[:-1] if free else [None]
+        psis = np.linspace(0, 2 * math.pi / z1, 61)[:-1] if free else [None]
         lo, hi = self._lo(), self.bound
         # contributions are linear in the complex line coefficients g_h: precompute the Gram system
         nr = len(ctx.models)
         cols = []
         for r, bl in enumerate(blocks):
             for part in ("re", "im"):
-                for h in range(3):
+                for h in range(N_MESH_HARMONICS):
                     per = [np.zeros((3, m.run.t_s.size)) for m in ctx.models]
                     per[r] = _dt(bl[h].real if part == "re" else -bl[h].imag)
                     cols.append(ctx.stack(per))
         Phi = np.column_stack(cols)
         G, b = Phi.T @ Phi, Phi.T @ R
-        h = np.arange(1, 4)
+        h = np.arange(1, N_MESH_HARMONICS + 1)
 
         def coeffs(v, psi):
             c = []
@@ -326,7 +336,7 @@ class Micro(Candidate):
             c = coeffs(v, psi)
             return float(2 * c @ b - c @ G @ c)
 
-        grid = np.linspace(lo, hi, 17)
+        grid = np.linspace(lo, hi, 13)
         best = (-np.inf, 0.0, None)
         for v in grid:
             for psi in psis:
@@ -334,10 +344,20 @@ class Micro(Candidate):
                 if d > best[0]:
                     best = (d, v, psi)
         _, v0, psi0 = best
-        step = (hi - lo) / 16
-        r = minimize_scalar(lambda v: -dss_of(v, psi0), bounds=(max(lo, v0 - step), min(hi, v0 + step)),
-                            method="bounded", options={"xatol": 1e-3 * (hi - lo)})
-        v = float(r.x) if -r.fun > best[0] else v0
+        step = (hi - lo) / 12
+        if psi0 is None:
+            r = minimize_scalar(lambda v: -dss_of(v, None), bounds=(max(lo, v0 - step), min(hi, v0 + step)),
+                                method="bounded", options={"xatol": 1e-3 * (hi - lo)})
+            v = float(r.x) if -r.fun > best[0] else v0
+        else:
+            dpsi = psis[1] - psis[0]
+            r = minimize(lambda p: -dss_of(p[0], p[1]), [v0, psi0], method="Nelder-Mead",
+                         bounds=[(max(lo, v0 - step), min(hi, v0 + step)), (psi0 - dpsi, psi0 + dpsi)],
+                         options={"xatol": 1e-4 * (hi - lo), "fatol": 1e-6 * abs(best[0]) + 1e-30})
+            if -r.fun > best[0]:
+                v, psi0 = float(r.x[0]), float(r.x[1]) % (2 * math.pi / z1)
+            else:
+                v = v0
         d = dss_of(v, psi0)
         contrib = self._contrib(ctx, blocks, v, psi0)
         assert nr == len(contrib)

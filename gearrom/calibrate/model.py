@@ -46,7 +46,8 @@ class RunModel:
     nominal : ndarray, shape (3, n)
         Nominal te, u_in, u_out mapped onto the run.
     gmf_model, gmf_meas : ndarray of complex
-        GMF harmonics 1..3 of the nominal model (psi = 0) and of the measured TE, m.
+        GMF harmonics (up to 6, below 0.35 x the working rate) of the nominal model (psi = 0) and of
+        the measured TE, m.
     H : dict
         ``"input"``/``"output"`` -> ``(orders, response (3, n_orders))``.
     noise_m : float
@@ -99,7 +100,8 @@ def build_run_model(sim: Simulator, run: RunData, *, with_sensitivity: bool = Tr
     noise = noise_rms(run.y[0], run.fs_hz)
     h0 = sim.simulate(cond, ModelChanges())
     th_s, ys = sim_signals(h0, run.mesh)
-    lines = mesh_lines(z1)
+    n_h = int(max(1, min(6, math.floor(0.35 * run.fs_hz / run.gmf_hz))))
+    lines = mesh_lines(z1, n_h)
     gm = fit_lines(ys[0] - ys[0].mean(), h0.theta_in_rad, h0.theta_out_rad, lines)
     gmeas = fit_lines(run.y[0], run.theta_in_rad, run.theta_out_rad, lines)
     psi, ok = estimate_mesh_phase(gmeas, gm, z1, noise / 1e-6 / math.sqrt(max(run.y.shape[1], 1) / 2))
@@ -114,10 +116,10 @@ def build_run_model(sim: Simulator, run: RunData, *, with_sensitivity: bool = Tr
 
 
 def max_order(run: RunData, shaft: str) -> int:
-    """Highest shaft order used: 3 GMF harmonics (input) / 2 x teeth (output), below 0.35 fs_work."""
+    """Highest shaft order used: 6 GMF harmonics (input) / 2 x teeth (output), below 0.35 fs_work."""
     f_in = run.rpm_in / 60.0
     if shaft == "input":
-        f, q = f_in, 3 * run.mesh.z1 + 2
+        f, q = f_in, 6 * run.mesh.z1 + 2
     else:
         f, q = f_in * run.mesh.ratio, 2 * run.mesh.z2
     return int(max(1, min(q, math.floor(0.35 * run.fs_hz / f))))

@@ -29,6 +29,8 @@ from pathlib import Path
 import numpy as np
 import scipy.linalg
 from scipy import signal
+from scipy.interpolate import CubicSpline
+from scipy.optimize import minimize_scalar
 
 from gearrom.calibrate.simulator import SimHistory
 from gearrom.errors import CalibrationError
@@ -133,7 +135,7 @@ def load_run(path: str | Path, mesh: GearMeshInfo, torque_out_Nm: float | None =
     th1d, th2d, td = th1[::q][:n], th2[::q][:n], res.t_s[::q][:n]
     cut = slice(EDGE_TRIM, n - EDGE_TRIM)  # the decimation filter's start/end transients
     y, th1d, th2d, td = y[:, cut], th1d[cut], th2d[cut], td[cut]
-    y = np.vstack([signal.detrend(v) for v in y])
+    y = detrend(y)
     run = RunData(name=str(path), rpm_in=float(res.rpm_in), rpm_in_nominal=float(res.rpm_in_nominal),
                   torque_out_Nm=float(torque), t_s=td - td[0], theta_in_rad=th1d, theta_out_rad=th2d, y=y,
                   fs_hz=res.fs_hz / q, mesh=mesh, repairs=tuple(res.repairs))
@@ -168,8 +170,8 @@ def map_to_run(hist: SimHistory, run: RunData) -> np.ndarray:
     if th_s[0] > th_m[0] + 1e-3 or th_s[-1] < th_m[-1]:
         raise CalibrationError(f"simulated run covers input angle {th_s[0]:.3f}..{th_s[-1]:.3f} rad, the "
                                f"measurement {run.name} needs {th_m[0]:.3f}..{th_m[-1]:.3f} rad")
-    out = np.vstack([np.interp(th_m, th_s, v) for v in ys])
-    return signal.detrend(out, axis=1)
+    out = CubicSpline(th_s, ys, axis=1)(th_m)  # linear interpolation would low-pass the mesh orders
+    return detrend(out, axis=1)
 
 
 # ------------------------------------------------------------------ order lines
@@ -223,9 +225,15 @@ def estimate_mesh_phase(meas: np.ndarray, model: np.ndarray, z1: int, noise_um: 
     period = 2 * math.pi / z1
     psi = np.linspace(0, period, 721)[:-1]
     h = np.arange(1, model.size + 1)
-    rot = np.exp(1j * np.outer(psi, h * z1))
-    cost = np.sum(np.abs(meas[None, :] - model[None, :] * rot) ** 2, axis=1)
-    return float(psi[int(np.argmin(cost))]), True
+
+    def cost(p):
+        rot = np.exp(1j * np.multiply.outer(p, h * z1))
+        return np.sum(np.abs(meas - model * rot) ** 2, axis=-1)
+
+    k = int(np.argmin(cost(psi)))
+    d = psi[1] - psi[0]
+    r = minimize_scalar(cost, bounds=(psi[k] - d, psi[k] + d), method="bounded", options={"xatol": d * 1e-4})
+    return float(r.x % period), True
 
 
 def noise_rms(x: np.ndarray, fs_hz: float) -> float:
@@ -244,6 +252,18 @@ def noise_rms(x: np.ndarray, fs_hz: float) -> float:
         band = f > 0
     p = np.abs(X[band]) ** 2
     return float(math.sqrt(np.median(p) / (np.sum(w**2) * math.log(2))))
+
+
+def detrend(a: np.ndarray, axis: int = -1) -> np.ndarray:
+    """Remove offset and slope along ``axis`` (same as ``scipy.signal.detrend(type="linear")``, faster)."""
+    a = np.asarray(a, float)
+    n = a.shape[axis]
+    t = np.linspace(-1.0, 1.0, n)
+    e0 = np.full(n, 1 / math.sqrt(n))
+    e1 = t / np.linalg.norm(t) if n > 1 else np.zeros(n)
+    am = np.moveaxis(a, axis, -1)
+    out = am - np.multiply.outer(am @ e0, e0) - np.multiply.outer(am @ e1, e1)
+    return np.moveaxis(out, -1, axis)
 
 
 def rms(x: np.ndarray) -> float:

@@ -16,7 +16,8 @@ sensor-side encoder), output gear (wheel, encoder), load (clutch hub, lever and 
 Rig values (``RigParams``) are assumed, chosen to put the first torsional mode near the seed's
 measured ~200 Hz peak and the mesh mode in its 2-3 kHz band. Integration: classical RK4 with a fixed
 step (1/50 kHz by default; the stiffest mode is ~2.8 kHz, ``omega h`` ~ 0.35), started from the static
-preload at speed, with a warm-up that is discarded.
+preload at speed, with a warm-up that is discarded. The mesh tables are band-limited to 0.2/h (10 kHz)
+so that the integrator does not alias their sharp contact entry/exit corners.
 """
 from __future__ import annotations
 
@@ -138,6 +139,15 @@ def _integrate(y0, h, n_steps, n_skip, p, ktab, etab, mper, ex1, ex2, rip):
     return out
 
 
+def _band_limit(table: np.ndarray, m_max: int) -> np.ndarray:
+    """Keep mesh harmonics 0..m_max of a one-period table (the integrator samples the excitation at
+    its stage times: content above about a fifth of the step rate would alias, differently for each
+    mesh phase, which would make a mesh-phase shift more than a rotation)."""
+    c = np.fft.rfft(table)
+    c[m_max + 1:] = 0.0
+    return np.fft.irfft(c, table.size)
+
+
 class TorsionalRig:
     """The torsional rig model as a :class:`~gearrom.calibrate.simulator.Simulator`.
 
@@ -235,6 +245,8 @@ class TorsionalRig:
         k_tab = k_tab * p.mesh_stiffness
         ft = run.torque_out_Nm / rb2
         e0 = e_tab - ft / (k_tab / p.mesh_stiffness)  # tangent linearization about the static point
+        gmf = z1 * run.rpm_in / 60.0
+        k_tab, e0 = (_band_limit(x, int(max(1, 0.2 / (self.h_s * gmf)))) for x in (k_tab, e0))
         _, _, _, (cs, cc, cm) = self.matrices(ch.rig_scale, k_mesh=float(np.mean(k_tab)) / p.mesh_stiffness)
         om = run.rpm_in * math.pi / 30.0
         ex1 = np.zeros(1) if ch.kinematic_in is None else np.asarray(ch.kinematic_in, float)

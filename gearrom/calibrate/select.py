@@ -5,6 +5,7 @@ import logging
 import math
 
 import numpy as np
+from scipy.optimize import lsq_linear
 
 from gearrom.calibrate.fit import Context, Micro, Trial
 from gearrom.calibrate.microgeom import MicroMods
@@ -73,7 +74,7 @@ def select_effects(ctx: Context, candidates: list, D: list[np.ndarray]) -> tuple
             break
         trials.sort(key=lambda t: -t.dss)
         best = trials[0]
-        thresh = max(s.kappa * ctx.noise_var * best.n_par, s.min_fraction * ss)
+        thresh = max(s.kappa * ctx.noise_var * best.n_par, s.min_fraction * ss, s.min_total_fraction * float(R0 @ R0))
         step = {"residual_energy": ss, "threshold": thresh,
                 "ranking": [{"candidate": repr(t.cand), "effect": t.cand.name, "target": t.cand.target,
                              "explained_share": t.dss / ss if ss > 0 else 0.0} for t in trials[:6]]}
@@ -91,13 +92,42 @@ def select_effects(ctx: Context, candidates: list, D: list[np.ndarray]) -> tuple
                                    "explained_share": trials[1].dss / ss} if len(trials) > 1 else None)
         step["accepted"] = repr(best.cand)
         accepted.append(best)
-        for _sweep in range(2):  # joint refit by block coordinate descent
-            for i, t in enumerate(accepted):
-                others = sum((ctx.stack(u.contrib) for j, u in enumerate(accepted) if j != i), np.zeros_like(R0))
-                new = t.cand.fit(ctx, R0 - others)
-                new.info = {**t.info, **{k: v for k, v in new.info.items()}}
-                accepted[i] = new
+        accepted = joint_refit(ctx, accepted, R0)
     return accepted, steps
+
+
+def joint_refit(ctx: Context, accepted: list[Trial], R0: np.ndarray, sweeps: int = 3) -> list[Trial]:
+    """Refit all accepted effects together: one bounded least squares over the linear ones, alternated
+    with refits of the non-linear ones (micro-geometry, rig parameters) on what the others leave."""
+    accepted = list(accepted)
+    zero = np.zeros_like(R0)
+    for _ in range(sweeps):
+        lin = [i for i, t in enumerate(accepted) if hasattr(t.cand, "linear_columns")]
+        non = [i for i in range(len(accepted)) if i not in lin]
+        if lin:
+            R = R0 - sum((ctx.stack(accepted[i].contrib) for i in non), zero)
+            blocks = [accepted[i].cand.linear_columns(ctx, accepted[i].info) for i in lin]
+            cols = [c for b in blocks for c in b[0]]
+            lo = np.concatenate([np.full(len(b[0]), b[1]) for b in blocks])
+            hi = np.concatenate([np.full(len(b[0]), b[2]) for b in blocks])
+            A = np.column_stack([ctx.stack(c) for c in cols])
+            x = lsq_linear(A, R, bounds=(lo, hi)).x
+            j = 0
+            for i, b in zip(lin, blocks):
+                n = len(b[0])
+                xi = x[j:j + n]
+                t = accepted[i]
+                contrib = [sum(xi[q] * b[0][q][r] for q in range(n)) for r in range(len(ctx.models))]
+                accepted[i] = Trial(t.cand, xi, contrib, t.dss, t.n_par, t.info)
+                j += n
+        for i in non:
+            others = sum((ctx.stack(u.contrib) for j2, u in enumerate(accepted) if j2 != i), zero)
+            new = accepted[i].cand.fit(ctx, R0 - others)
+            new.info = {**accepted[i].info, **new.info}
+            accepted[i] = new
+        if not non:
+            break
+    return accepted
 
 
 def verification_changes(ctx: Context, accepted: list[Trial]) -> tuple[dict, list]:

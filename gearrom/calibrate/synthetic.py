@@ -4,8 +4,8 @@ For tests, benchmarks and the notebook. The effects are written here from their 
 definitions, independently of the diagnosis' own effect models:
 
 * gear eccentricity: kinematic error ``e cos(theta_gear + phi)`` along the line of action;
-* a displaced tooth: its deviation times a *box* window as long as the tooth is in contact
-  (``eps_gamma`` mesh periods), not the load-share window the diagnosis uses;
+* a displaced tooth: its deviation times its share of the contact-line length
+  (:func:`contact_length_window`), not the load-share window the diagnosis uses;
 * encoder eccentricity: an angle error ``(e / r_b) cos(theta + phi)`` of that channel only,
   applied to the simulated angle before the encoder emulation;
 * micro-geometry: absolute flank modifications of the simulated pair;
@@ -58,6 +58,26 @@ class Injected:
     load_ripple: tuple | None = None
 
 
+def contact_length_window(pair, z: int, tooth: int) -> np.ndarray:
+    """Share of the load on one tooth over a revolution, from its contact-line length alone.
+
+    A helical tooth's contact line grows linearly while it enters the face (``eps_beta`` mesh
+    periods), stays, and shrinks while it leaves: a trapezoid of ``eps_alpha + eps_beta`` periods.
+    The share is its length over the sum of all teeth's lengths (independent of the diagnosis,
+    which uses the load share of the stiffness model).
+    """
+    u = np.arange(N_TAB) / N_TAB * z  # position in mesh periods
+    ea, eb = pair.eps_alpha, max(pair.eps_beta, 1e-3)
+    lo, hi = min(ea, eb), max(ea, eb)
+
+    def trap(x):
+        x = np.mod(x, z)
+        return np.clip(np.minimum(np.minimum(x, lo), np.minimum(ea + eb - x, lo)), 0.0, None) * (x < ea + eb)
+
+    total = sum(trap(u - j) for j in range(z))
+    return trap(u - tooth) / total
+
+
 def _kinematic(inj: Injected, pair, gear: str) -> np.ndarray | None:
     th = np.arange(N_TAB) * 2 * math.pi / N_TAB
     tab = np.zeros(N_TAB)
@@ -69,10 +89,8 @@ def _kinematic(inj: Injected, pair, gear: str) -> np.ndarray | None:
     if gear in inj.pitch:
         k, dev = inj.pitch[gear]
         z = pair.z[0 if gear == "input_gear" else 1]
-        width = pair.eps_gamma * 2 * math.pi / z
-        start = k * 2 * math.pi / z
-        box = ((th - start) % (2 * math.pi)) < width
-        tab += dev * 1e-6 * (box - box.mean())
+        win = contact_length_window(pair, z, k)
+        tab += dev * 1e-6 * (win - win.mean())
         used = True
     return tab if used else None
 

@@ -1,0 +1,61 @@
+"""``gearrom diagnose NAME_OR_PATH MEASUREMENT.json [...]``: which effect does the model miss, and how big is it."""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+NAME = "diagnose"
+HELP = "compare measured runs with the model, trace and fit the missing effects, report error before/after"
+
+
+def add_args(parser: argparse.ArgumentParser) -> None:
+    """Arguments of ``gearrom diagnose``."""
+    parser.add_argument("config", metavar="NAME_OR_PATH", help="gear/rig configuration (bundled name or TOML file)")
+    parser.add_argument("measurements", metavar="MEASUREMENT.json", nargs="+", type=Path,
+                        help="one or more gearrom.measurement/1 files of the same rig (different speeds/loads)")
+    parser.add_argument("--json", dest="json_out", metavar="OUT", help="write the report JSON here ('-' = stdout)")
+    parser.add_argument("--report", metavar="DIR", type=Path,
+                        help="write diagnosis.json, summary.txt and before/after plots (run_<i>.png) into DIR")
+    parser.add_argument("--save", metavar="NPZ", type=Path, help="save the full result (traces + JSON)")
+    parser.add_argument("--simulator", choices=("auto", "rom", "torsional"), default="auto",
+                        help="dynamic model: exudyn ROM, the torsional rig model, or auto (ROM when it has the hooks)")
+    parser.add_argument("--torque-out-Nm", type=float, help="load torque for files that do not state torque_out_Nm")
+    parser.add_argument("--max-effects", type=int, default=3, help="most effects added (default 3)")
+    parser.add_argument("--effects", help="comma-separated subset of the library to consider "
+                        "(eccentricity,pitch_error,tip_relief,lead_crowning,helix_slope,encoder_eccentricity,torsional_mode)")
+    parser.add_argument("--per-run-phase", action="store_true",
+                        help="shaft-order phases per run (when the files do not start at the encoder index)")
+    parser.add_argument("--rpm-tolerance", type=float, default=0.05,
+                        help="allowed relative mismatch of rpm_in and the data (default 0.05)")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the diagnosis and write the requested outputs."""
+    from gearrom.calibrate import FitSettings, check_name, diagnose
+    from gearrom.calibrate.simulator import default_simulator
+    from gearrom.errors import CalibrationError
+    from gearrom.signal import ReadSettings
+
+    names = None
+    if args.effects:
+        names = tuple(x.strip() for x in args.effects.split(",") if x.strip())
+        for n in names:
+            check_name(n)
+    if args.max_effects < 0:
+        raise CalibrationError(f"--max-effects={args.max_effects} must be >= 0")
+    settings = FitSettings(max_effects=args.max_effects, candidates=names, shared_shaft_phase=not args.per_run_phase)
+    sim = default_simulator(args.config, prefer=args.simulator)
+    res = diagnose(args.config, args.measurements, simulator=sim, settings=settings,
+                   read_settings=ReadSettings(rpm_tolerance=args.rpm_tolerance), torque_out_Nm=args.torque_out_Nm)
+    if args.json_out == "-":
+        sys.stdout.write(res.to_json())
+    else:
+        if args.json_out:
+            Path(args.json_out).write_text(res.to_json())
+        sys.stdout.write(res.text())
+    if args.report:
+        res.write_report(args.report)
+    if args.save:
+        res.save(args.save)
+    return 0
