@@ -5,8 +5,9 @@ as zero at the first edge). :class:`EdgeStream` takes the edges of one channel c
 checks them, repairs what can be repaired and emits the angle, interpolated between edges
 (cubic Hermite by default, or linear), at the grid times ``k / fs_hz``.
 
-Checks, against a local reference interval (the median edge interval of blocks of
-``ReadSettings.block`` edges, i.e. the local speed):
+Checks, against a local reference interval (the median of the two intervals before and the two
+after, i.e. the local speed; it follows accelerations, run-ups from rest included; the first two
+intervals of a channel have no reference before them and are not checked):
 
 - non-finite or decreasing time stamps, direction reversals (``direction`` column = -1): error;
 - an interval shorter than ``double_ratio`` times the reference: a spurious double edge (or a
@@ -44,8 +45,6 @@ class ReadSettings:
         Upper limit of the automatic grid rate, Hz.
     chunk_rows : int
         Rows read per chunk (memory is proportional to it).
-    block : int
-        Edges per block for the local reference interval (median).
     double_ratio, gap_ratio : float
         Interval/reference below which an edge is spurious, above which edges were dropped.
     integer_tol : float
@@ -68,7 +67,6 @@ class ReadSettings:
     fs_hz: float | None = None
     fs_max_hz: float = 200e3
     chunk_rows: int = 2_000_000
-    block: int = 256
     double_ratio: float = 0.5
     gap_ratio: float = 1.5
     integer_tol: float = 0.3
@@ -83,8 +81,8 @@ class ReadSettings:
             raise ConfigError(f"Parameter fs_hz={self.fs_hz!r} must be > 0 or None")
         if not (0 < self.double_ratio < 1 < self.gap_ratio):
             raise ConfigError(f"need 0 < double_ratio={self.double_ratio} < 1 < gap_ratio={self.gap_ratio}")
-        if self.chunk_rows < 16 or self.block < 8:
-            raise ConfigError(f"Parameters chunk_rows={self.chunk_rows} (>= 16) / block={self.block} (>= 8)")
+        if self.chunk_rows < 16:
+            raise ConfigError(f"Parameter chunk_rows={self.chunk_rows} must be >= 16")
         if self.edge_interp not in ("linear", "cubic"):
             raise ConfigError(f"Parameter edge_interp={self.edge_interp!r} must be 'linear' or 'cubic'")
 
@@ -143,6 +141,7 @@ class EdgeStream:
         self.k0: int | None = None
         self._tail_t = np.empty(0)
         self._tail_row = np.empty(0, np.int64)
+        self._prev_d = np.empty(0)  # last two accepted intervals: left context of the reference
         self._out: list[np.ndarray] = []
         self._buf_t = np.empty(0)  # cubic: accepted edges not yet fully emitted (3 kept for slopes)
         self._buf_c = np.empty(0)
@@ -222,6 +221,8 @@ class EdgeStream:
                              f"time stamp decreases (previous edge at {self.label} {e_row[j]}, t={fmt_t(e_t[j])})")
         ref = self._reference(d)
         r = d / ref
+        if self.last_t is None or self._prev_d.size < 2:  # start of the channel: no speed reference yet
+            r[:2 - self._prev_d.size] = 1.0
         # intervals [0, n_dec) are decided now; the last _TAIL edges wait for the next chunk
         n_dec = n - 1 if final else n - 1 - self._TAIL
         if n_dec <= 0:
@@ -249,6 +250,7 @@ class EdgeStream:
             self._repair("dropped_edges", row, tt, m - 1, f"{m - 1} dropped edge(s) detected from the speed "
                          f"(interval {rk[g]:.2f} x local mean) and filled by interpolation")
         counts = self.last_count + np.concatenate([[0], np.cumsum(inc)])
+        self._prev_d = np.concatenate([self._prev_d, dk])[-2:]
         self._emit(ta, counts)
         self.last_t, self.last_row, self.last_count = float(ta[-1]), int(e_row[acc[-1]]), int(counts[-1])
         rest = np.arange(n_acc, n)
@@ -256,21 +258,20 @@ class EdgeStream:
         self._tail_t, self._tail_row = e_t[rest], e_row[rest]
 
     def _reference(self, d: np.ndarray) -> np.ndarray:
-        """Local reference interval for each interval: median over blocks of ``block`` intervals
-        (of every 4th interval in full blocks)."""
-        b = self.s.block
-        nb = d.size // b
-        ref = np.empty_like(d)
-        if nb:
-            med = np.median(d[:nb * b].reshape(nb, b)[:, ::4], axis=1)  # every 4th interval: robust enough, 4x cheaper
-            ref[:nb * b] = np.repeat(med, b)
-        if d.size > nb * b:
-            rest = d[nb * b:]
-            ref[nb * b:] = np.median(rest) if rest.size >= 16 or not nb else med[-1]
+        """Local reference of each interval: median of the two intervals before and the two after it
+        (the mean of the middle two of four = (sum - max - min) / 2); the ends are padded."""
+        ext = np.concatenate([self._prev_d, d])
+        ext = np.concatenate([np.full(2 - self._prev_d.size, ext[0]), ext, np.full(2, ext[-1])])
+        n = d.size
+        a, b, c, e = ext[0:n], ext[1:n + 1], ext[3:n + 3], ext[4:n + 4]
+        hi = np.maximum(np.maximum(a, b), np.maximum(c, e))
+        lo = np.minimum(np.minimum(a, b), np.minimum(c, e))
+        ref = (a + b + c + e - hi - lo) * 0.5
         if not (ref > 0).all():
             j = int(np.argmin(ref > 0))
-            raise MeasurementError(f"{self.file}: channel {self.channel!r}: median edge interval is zero in "
-                                   f"block {j // b} of the current chunk (many duplicated time stamps)")
+            raise MeasurementError(f"{self.file}: channel {self.channel!r}: edge intervals around edge "
+                                   f"{self.n_edges - self._tail_t.size + j} of the channel are zero (duplicated "
+                                   "time stamps)")
         return ref
 
     def _remove_doubles(self, small, r, keep, d, e_t, e_row) -> None:

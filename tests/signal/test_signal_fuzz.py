@@ -18,7 +18,7 @@ from hypothesis import strategies as st
 from gearrom.errors import MeasurementError
 from gearrom.signal import AngleRecord, ReadSettings, emulate_edges, load_angles, write_measurement
 
-READ = ReadSettings(chunk_rows=64, block=16)
+READ = ReadSettings(chunk_rows=64)
 
 
 def _base_run(folder: Path, name: str) -> Path:
