@@ -13,7 +13,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import scipy.linalg as sla
 
 from gearrom.errors import ModelError
 from gearrom.rom.model import Drivetrain
@@ -197,7 +196,7 @@ class CampbellResult:
         ax.set_ylabel("frequency [Hz]")
         ax.set_title(f"Campbell diagram {self.config} (colour: mesh strain-energy share)", fontsize=9)
         fig.colorbar(sc, ax=ax, label="mesh energy share")
-        ax.legend(fontsize=7, loc="upper left")
+        ax.legend(fontsize=7, loc="lower right")
         fig.tight_layout()
         return fig
 

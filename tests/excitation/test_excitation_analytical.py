@@ -1,5 +1,4 @@
 """Analytical ISO 6336-1 shaped excitation against the ISO numbers of shared/notes/reference-values.md."""
-import math
 import warnings
 
 import numpy as np
