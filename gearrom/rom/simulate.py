@@ -159,27 +159,36 @@ def simulate_run(config_or_model, rpm_in: float, torque_out_Nm: float | None = N
     # mesh parameters at every step midpoint, precomputed (vectorised): the pre-step function only
     # indexes them, which keeps the Python work per step to two parameter updates
     # step averages (4-point midpoint rule) of k and of the force offset k e0, so that jumps of the table
-    # (pair entry/exit) fall at the right place within a step instead of at the nearest step midpoint
+    # (pair entry/exit) fall at the right place within a step instead of at the nearest step midpoint;
+    # computed vectorised in chunks, the pre-step function only indexes them (two parameter updates)
     sub = (np.arange(4) + 0.5) / 4
-    tm = ((np.arange(n_steps + 1)[:, None] + sub[None, :]) * h).ravel()
-    k_arr, e_arr = law.evaluate_array(theta0 + omega * tm, theta0 * z1 / z2 + omega2 * tm)
-    k_avg = k_arr.reshape(-1, 4).mean(axis=1)
-    f0_avg = (k_arr * e_arr - f_nom).reshape(-1, 4).mean(axis=1)
-    k_list = k_avg.tolist()
-    up_list = (f0_avg / k_avg).tolist()
-    tm = (np.arange(n_steps + 1) + 0.5) * h
-    rip_list = [law.ripple(a) for a in theta0 * z1 / z2 + omega2 * tm] if load is not None else None
+    chunk = 1 << 16
     inv_h = 1.0 / h
     set_par = mbs.SetObjectParameter
+    cache = {"start": -1, "k": [], "up": [], "rip": None}
+
+    def fill(start: int) -> None:
+        idx = np.arange(start, min(start + chunk, n_steps + 1))
+        tm = ((idx[:, None] + sub[None, :]) * h).ravel()
+        k_arr, e_arr = law.evaluate_array(theta0 + omega * tm, theta0 * z1 / z2 + omega2 * tm)
+        k_avg = k_arr.reshape(-1, 4).mean(axis=1)
+        f0_avg = (k_arr * e_arr - f_nom).reshape(-1, 4).mean(axis=1)
+        cache.update(start=start, k=k_avg.tolist(), up=(f0_avg / k_avg).tolist())
+        if load is not None:
+            cache["rip"] = [law.ripple(a) for a in theta0 * z1 / z2 + omega2 * (idx + 0.5) * h]
 
     def pre_step(mbs_, t):
-        i = int(t * inv_h + 0.5)
-        set_par(conn, "limitStopsStiffness", k_list[i])
-        set_par(conn, "limitStopsUpper", up_list[i])
-        if rip_list is not None:
-            mbs_.SetLoadParameter(load, "load", rip_list[i])
+        i = int(t * inv_h + 0.5) - cache["start"]
+        if i >= chunk or i < 0:
+            fill(int(t * inv_h + 0.5))
+            i = 0
+        set_par(conn, "limitStopsStiffness", cache["k"][i])
+        set_par(conn, "limitStopsUpper", cache["up"][i])
+        if load is not None:
+            mbs_.SetLoadParameter(load, "load", cache["rip"][i])
         return True
 
+    fill(0)
     mbs.SetPreStepUserFunction(pre_step)
     sens = mbs.AddSensor(SensorNode(nodeNumber=node, outputVariableType=exu.OutputVariableType.Coordinates,
                                     storeInternal=True, writeToFile=False))
