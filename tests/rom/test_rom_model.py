@@ -126,3 +126,22 @@ def test_effects_from_enabled_microgeometry(tmp_path):
     assert len(eff.runout) == 1 and eff.runout[0].gear == 1
     assert eff.runout[0].eccentricity == pytest.approx(11e-6)  # F_r / 2
     assert eff.runout[0].phase == pytest.approx(math.pi / 2)
+
+
+def test_helical_static_bearing_reactions_balance_mesh_force(rig):
+    """Statics: the bearings carry the 3D mesh force: axial F_t tan(beta_b) on the ball bearing (the needle
+    bearing is axially free), radial F_t (sin alpha_wt, cos alpha_wt) shared by both bearings."""
+    from gearrom.rom.components import UX, UY, UZ
+
+    k, e = rig.excitation.mean_stiffness(120.0), rig.excitation.mean_ste(120.0)
+    x = rig.static_state(120.0, k, e)
+    ft = rig.nominal_force(120.0)
+    kb = {c.station: c for c in rig.components if type(c).__name__ in ("BallBearing", "NeedleBearing")}
+    for sh, sign in (("in", -1.0), ("out", 1.0)):
+        ball, needle = kb[f"{sh}.ball_bearing"], kb[f"{sh}.needle_bearing"]
+        fz = ball.k_axial * x[rig.index(ball.station, UZ)]
+        assert sign * fz == pytest.approx(ft * math.tan(rig.pair.beta_b), rel=1e-9)
+        fx = sum(b.k_radial * x[rig.index(b.station, UX)] for b in (ball, needle))
+        fy = sum(b.k_radial * x[rig.index(b.station, UY)] for b in (ball, needle))
+        assert sign * fx == pytest.approx(ft * math.sin(rig.pair.alpha_wt), rel=1e-6)
+        assert sign * fy == pytest.approx(ft * math.cos(rig.pair.alpha_wt), rel=1e-6)
