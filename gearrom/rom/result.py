@@ -80,6 +80,18 @@ class DynamicRun:
         """Largest mesh force over the nominal one, ``max F / (T_out / rb2)`` [-]."""
         return float(np.max(self.force) / self.f_nom)
 
+    @property
+    def sample_rate(self) -> float:
+        """Sample rate of the histories [Hz]."""
+        return float(1.0 / np.median(np.diff(self.time)))
+
+    def angle(self, shaft: str, side: str = "sensor") -> np.ndarray:
+        """Absolute encoder angle [rad] (drive sense) of ``shaft`` (``"in"``/``"out"``) at ``side``."""
+        name = f"{shaft}.{side}"
+        if name not in self.encoders:
+            raise ModelError(f"DynamicRun has no encoder {name!r} (available: {', '.join(self.encoders)})")
+        return self.theta[self.encoders.index(name)]
+
     def dte_at(self, side: str = "sensor", radius: str = "base") -> np.ndarray:
         """DTE [m] at ``side``; ``radius="pitch"`` scales to the pitch circles as the seed's eqs. 39/40 do."""
         if side not in self.dte:

@@ -77,6 +77,10 @@ def test_run_round_trip(tmp_path, rig):
     np.testing.assert_array_equal(back.theta, run.theta)
     assert back.encoders == run.encoders and back.metadata["config"] == "thesis-rig"
     assert back.contact_loss == run.contact_loss
+    # DTE from the encoder angles (seed eq. 40 with base radii): rb1 theta_in - rb2 theta_out, mean removed
+    te = run.radii["rb1"] * run.angle("in", "sensor") - run.radii["rb2"] * run.angle("out", "sensor")
+    np.testing.assert_allclose(te - te.mean(), run.dte["sensor"] - run.dte["sensor"].mean(), atol=1e-9)
+    assert run.sample_rate == pytest.approx(64 * 32 * 1500 / 60, rel=1e-6)
     # pitch-circle option of the seed's eqs. 39/40
     assert np.allclose(run.dte_at("sensor", "pitch"), run.dte["sensor"] * run.radii["r1"] / run.radii["rb1"])
     fig = run.plot()
