@@ -177,7 +177,8 @@ class MeshLaw:
             self.pitch.append((p.gear, (sign * curve).tolist() + [float(sign * curve[0])],
                                curve.size / (2 * math.pi)))
 
-    def _base(self, th1: float) -> tuple[float, float]:
+    def base(self, th1: float) -> tuple[float, float]:
+        """``(k, e)`` of the table alone (no effects) at input angle ``th1`` [rad]."""
         x = th1 * self.scale
         i = math.floor(x)
         f = x - i
@@ -186,7 +187,7 @@ class MeshLaw:
 
     def evaluate(self, th1: float, th2: float) -> tuple[float, float]:
         """``(k [N/m], e [m])`` at drive-sense angles ``th1``, ``th2`` [rad], all effects included."""
-        k, e = self._base(th1)
+        k, e = self.base(th1)
         eff = self.effects
         if eff.empty:
             return k, e

@@ -114,9 +114,10 @@ def reduce(model: Drivetrain, rpm_in: float, torque_out: float, cutoff: float | 
 
 def periodic_initial_state(red: Reduced, model: Drivetrain, rpm_in: float, torque_out: float,
                            k_grid: np.ndarray, e_grid: np.ndarray,
-                           theta0: float, n_harmonics: int = 12) -> tuple[np.ndarray, np.ndarray]:
+                           theta0: float, n_harmonics: int = 12, e_offset: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """Initial ``(y, y_t)``: static preload at the mean mesh stiffness plus the linear periodic response
     to the STE harmonics (mean stiffness), evaluated at input angle ``theta0`` (``t = 0``).
+    ``e_offset`` [m] is the non-periodic kinematic error (effects) at ``t = 0``, taken up statically.
 
     This starts the run close to its steady state, so only the parametric part has to settle.
     """
@@ -131,7 +132,7 @@ def periodic_initial_state(red: Reduced, model: Drivetrain, rpm_in: float, torqu
     Fr = Ti.T @ red.F
     r = len(w)
     A0 = Kr + kbar * np.outer(w, w)
-    ebar = float(np.mean(e_grid))
+    ebar = float(np.mean(e_grid)) + float(e_offset)
     rhs = Fr - w * (f_nom - kbar * ebar)
     # gauge: the rigid mode (zero frequency) carries no static deflection
     rigid = red.freqs < 1e-3 * max(red.freqs.max(), 1.0)
