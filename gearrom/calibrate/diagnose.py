@@ -32,7 +32,7 @@ from gearrom.signal import GearMeshInfo, ReadSettings
 log = logging.getLogger(__name__)
 UM = 1e-6
 UNEXPLAINED_SHARE = 0.05  # an unexplained line must exceed 5 % of the largest residual line before the fit
-UNEXPLAINED_NOISE = 2.0  # ... and twice the broadband noise rms (lines at noise level are not reported)
+UNEXPLAINED_NOISE = 3.0  # ... and 3 x the broadband noise rms (lines at noise level are not reported)
 
 
 def diagnose(config: str | Path, measurements: Sequence[str | Path], *, simulator=None,
@@ -82,6 +82,13 @@ def diagnose(config: str | Path, measurements: Sequence[str | Path], *, simulato
     accepted, steps = select_effects(ctx, make_candidates(ctx), D)
     after = verify(ctx, accepted)
     return _assemble(ctx, config, sim, D, accepted, steps, after)
+
+
+def _wrap_deg(psi: float, z1: int) -> float:
+    """Mesh phase in deg of input angle, wrapped to (-period/2, period/2]."""
+    period = 360.0 / z1
+    d = math.degrees(psi) % period
+    return d - period if d > period / 2 else d
 
 
 def _line_amp(x: np.ndarray, run, shaft: str, order: int = 1) -> float:
@@ -139,7 +146,7 @@ def _assemble(ctx: Context, config, sim, D, accepted, steps, after) -> Diagnosis
         runs_json.append({"measurement": r.name, "rpm_in": r.rpm_in, "rpm_in_nominal": r.rpm_in_nominal,
                           "torque_out_Nm": r.torque_out_Nm, "revs_out": r.revs_out, "duration_s": r.duration_s,
                           "error_before_rms_um": rms(rb) / UM, "error_after_rms_um": rms(ra) / UM,
-                          "noise_rms_um": m.noise_m / UM, "mesh_phase_deg": math.degrees(m.psi),
+                          "noise_rms_um": m.noise_m / UM, "mesh_phase_deg": _wrap_deg(m.psi, r.mesh.z1),
                           "mesh_phase_estimated": m.psi_identifiable, "repairs": len(r.repairs), "orders": tab})
         traces.append(RunTraces(r.name, r.rpm_in, r.t_s, r.theta_in_rad, r.y[0], m.nominal[0], mod_after[0], r.fs_hz))
     before = rms(np.concatenate(res_b)) / UM

@@ -31,7 +31,7 @@ from scipy.optimize import lsq_linear, minimize, minimize_scalar
 
 from gearrom.calibrate.effects import LIBRARY, amp_phase, load_share_window
 from gearrom.calibrate.microgeom import MicroMods
-from gearrom.calibrate.model import N_TABLE, RunModel
+from gearrom.calibrate.model import N_TABLE, RunModel, realigned
 from gearrom.calibrate.residual import detrend, map_to_run
 from gearrom.calibrate.simulator import ModelChanges
 
@@ -298,7 +298,7 @@ class Micro(Candidate):
         for m, cols in zip(ctx.models, blocks):
             d = ctx.ste_lines(m.run.torque_out_Nm, self._mods(ctx, value)) - ctx.ste_lines(m.run.torque_out_Nm,
                                                                                           ctx.micro_nominal)
-            psi = m.psi if psi_free is None else psi_free
+            psi = m.psi if (psi_free is None or m.psi_identifiable) else psi_free
             z1 = m.run.mesh.z1
             g = d * np.exp(1j * np.arange(1, N_MESH_HARMONICS + 1) * z1 * psi)
             out.append(_dt(sum((g[h] * cols[h]).real for h in range(N_MESH_HARMONICS))))
@@ -328,7 +328,7 @@ class Micro(Candidate):
             for m in ctx.models:
                 d = ctx.ste_lines(m.run.torque_out_Nm, self._mods(ctx, v)) - ctx.ste_lines(m.run.torque_out_Nm,
                                                                                           ctx.micro_nominal)
-                g = d * np.exp(1j * h * z1 * (m.psi if psi is None else psi))
+                g = d * np.exp(1j * h * z1 * (m.psi if (psi is None or m.psi_identifiable) else psi))
                 c.extend([*g.real, *g.imag])
             return np.array(c)
 
@@ -384,12 +384,14 @@ class RigMode(Candidate):
     def __repr__(self):
         return f"torsional_mode[{self.param}]"
 
-    def _contrib(self, ctx: Context, scale: float) -> list:
-        out = []
+    def _contrib(self, ctx: Context, scale: float) -> tuple[list, list]:
+        out, psis = [], []
         for m in ctx.models:
-            h = ctx.sim.simulate(m.cond, ModelChanges(rig_scale=((self.param, scale),), mesh_phase_rad=m.psi))
-            out.append(map_to_run(h, m.run) - m.nominal)
-        return out
+            h = ctx.sim.simulate(m.cond, ModelChanges(rig_scale=((self.param, scale),)))
+            mapped, psi = realigned(m, h)
+            out.append(mapped - m.nominal)
+            psis.append(psi)
+        return out, psis
 
     def fit(self, ctx, R):
         cache = {}
@@ -397,20 +399,20 @@ class RigMode(Candidate):
         def dss(logs):
             s = round(math.exp(logs), 6)
             if s not in cache:
-                c = self._contrib(ctx, s)
+                c, psis = self._contrib(ctx, s)
                 v = ctx.stack(c)
-                cache[s] = (float(2 * v @ R - v @ v), c)
+                cache[s] = (float(2 * v @ R - v @ v), c, psis)
             return cache[s][0]
 
-        grid = np.linspace(math.log(0.4), math.log(2.5), 9)
+        grid = np.linspace(math.log(0.4), math.log(2.5), 7)
         vals = [dss(g) for g in grid]
         j = int(np.argmax(vals))
         lo, hi = grid[max(j - 1, 0)], grid[min(j + 1, grid.size - 1)]
-        r = minimize_scalar(lambda g: -dss(g), bounds=(lo, hi), method="bounded", options={"xatol": 0.005})
+        r = minimize_scalar(lambda g: -dss(g), bounds=(lo, hi), method="bounded", options={"xatol": 0.003, "maxiter": 12})
         g = float(r.x) if -r.fun > vals[j] else float(grid[j])
         s = round(math.exp(g), 6)
         d = dss(g)
-        return Trial(self, np.array([s]), cache[s][1], d, 1, {"parameter": self.param})
+        return Trial(self, np.array([s]), cache[s][1], d, 1, {"parameter": self.param, "psi_runs": cache[s][2]})
 
     def report(self, x, info):
         s = float(x[0])

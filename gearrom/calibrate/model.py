@@ -52,6 +52,8 @@ class RunModel:
         ``"input"``/``"output"`` -> ``(orders, response (3, n_orders))``.
     noise_m : float
         Broadband noise rms of the measured TE on the working grid, m.
+    lines : ndarray
+        The GMF lines used for the mesh-phase estimate.
     """
 
     run: RunData
@@ -63,6 +65,7 @@ class RunModel:
     gmf_meas: np.ndarray
     H: dict = field(default_factory=dict)
     noise_m: float = 0.0
+    lines: np.ndarray | None = None
 
     def response(self, shaft: str, coeffs: dict[int, complex]) -> np.ndarray:
         """Predicted (3, n) signals for a kinematic error ``Re(sum_q coeffs[q] exp(i q theta_shaft))``."""
@@ -108,11 +111,23 @@ def build_run_model(sim: Simulator, run: RunData, *, with_sensitivity: bool = Tr
     hn = sim.simulate(cond, ModelChanges(mesh_phase_rad=psi)) if psi else h0
     nominal = map_to_run(hn, run)
     rm = RunModel(run=run, cond=cond, psi=psi, psi_identifiable=ok, nominal=nominal, gmf_model=gm, gmf_meas=gmeas,
-                  noise_m=noise)
+                  noise_m=noise, lines=lines)
     if with_sensitivity:
         for shaft in ("input", "output"):
             rm.H[shaft] = _sensitivity(sim, rm, hn, shaft)
     return rm
+
+
+def realigned(rm: RunModel, hist) -> tuple[np.ndarray, float]:
+    """A re-tuned model run (simulated at mesh phase 0, no shaft-order effects) mapped onto the run
+    with its mesh phase re-estimated from *its own* GMF lines, as for the nominal model."""
+    _, ys = sim_signals(hist, rm.run.mesh)
+    gm = fit_lines(ys[0] - ys[0].mean(), hist.theta_in_rad, hist.theta_out_rad, rm.lines)
+    n = rm.run.y.shape[1]
+    psi, ok = estimate_mesh_phase(rm.gmf_meas, gm, rm.run.mesh.z1, rm.noise_m / 1e-6 / math.sqrt(max(n, 1) / 2))
+    if not ok:
+        psi = rm.psi
+    return map_to_run(hist, rm.run, angle_shift=psi), psi
 
 
 def max_order(run: RunData, shaft: str) -> int:

@@ -152,8 +152,12 @@ def sim_signals(hist: SimHistory, mesh: GearMeshInfo) -> tuple[np.ndarray, np.nd
     return th1, np.vstack([te, mesh.rb1_m * signal.detrend(th1), mesh.rb2_m * signal.detrend(th2)])
 
 
-def map_to_run(hist: SimHistory, run: RunData) -> np.ndarray:
+def map_to_run(hist: SimHistory, run: RunData, angle_shift: float = 0.0) -> np.ndarray:
     """Simulated ``te, u_in, u_out`` at the run's samples, matched by input-shaft angle, same processing.
+
+    ``angle_shift`` (rad): evaluate the simulation at ``theta_in + angle_shift``. For a simulation
+    without shaft-order content this equals imposing the mesh phase ``angle_shift`` (the steady
+    state is then a function of the mesh phase only), at no extra simulation.
 
     Raises
     ------
@@ -167,6 +171,7 @@ def map_to_run(hist: SimHistory, run: RunData) -> np.ndarray:
         sos = signal.butter(8, fc, fs=fs_sim, output="sos")
         ys = signal.sosfiltfilt(sos, ys, axis=1)
     th_m = run.theta_in_rad
+    th_m = th_m + angle_shift
     if th_s[0] > th_m[0] + 1e-3 or th_s[-1] < th_m[-1]:
         raise CalibrationError(f"simulated run covers input angle {th_s[0]:.3f}..{th_s[-1]:.3f} rad, the "
                                f"measurement {run.name} needs {th_m[0]:.3f}..{th_m[-1]:.3f} rad")
@@ -216,8 +221,8 @@ def estimate_mesh_phase(meas: np.ndarray, model: np.ndarray, z1: int, noise_um: 
 
     ``model_h exp(i h z1 psi) ~ meas_h`` in least squares over the harmonics h; only the nominal
     model's own GMF content is used, so no residual is fitted away. Returns ``(psi, identifiable)``;
-    psi = 0 when the model's GMF lines are below ``3 x noise`` (nothing to align) or explain less than
-    a third of the measured GMF lines (the alignment would then follow an unmodelled effect).
+    psi = 0 when the model's GMF lines are below ``3 x noise`` (nothing to align), or when even the best
+    alignment leaves more than half of the measured GMF energy (it would then follow an unmodelled effect).
     """
     sm, sd = float(np.sum(np.abs(model))), float(np.sum(np.abs(meas)))
     if sm < 3 * noise_um * 1e-6 * model.size or sm < sd / 3:
@@ -233,6 +238,8 @@ def estimate_mesh_phase(meas: np.ndarray, model: np.ndarray, z1: int, noise_um: 
     k = int(np.argmin(cost(psi)))
     d = psi[1] - psi[0]
     r = minimize_scalar(cost, bounds=(psi[k] - d, psi[k] + d), method="bounded", options={"xatol": d * 1e-4})
+    if float(r.fun) > 0.5 * float(np.sum(np.abs(meas) ** 2)):
+        return 0.0, False  # even aligned, the model explains less than half of the measured GMF energy
     return float(r.x % period), True
 
 

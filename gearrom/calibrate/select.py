@@ -55,13 +55,15 @@ def select_effects(ctx: Context, candidates: list, D: list[np.ndarray]) -> tuple
     R0 = ctx.stack(D)
     accepted: list[Trial] = []
     steps: list[dict] = []
+    screened: set = set()  # expensive (re-simulating) candidates that explained nothing significant
     for _ in range(s.max_effects):
         R = R0 - sum((ctx.stack(t.contrib) for t in accepted), np.zeros_like(R0))
         ss = float(R @ R)
         done = {t.key for t in accepted}
         trials = []
         for c in candidates:
-            if (c.name, c.target) in done or (c.name == "torsional_mode" and any(k[0] == "torsional_mode" for k in done)):
+            if (c.name, c.target) in done or repr(c) in screened or \
+                    (c.name == "torsional_mode" and any(k[0] == "torsional_mode" for k in done)):
                 continue
             try:
                 t = c.fit(ctx, R)
@@ -75,6 +77,7 @@ def select_effects(ctx: Context, candidates: list, D: list[np.ndarray]) -> tuple
         trials.sort(key=lambda t: -t.dss)
         best = trials[0]
         thresh = max(s.kappa * ctx.noise_var * best.n_par, s.min_fraction * ss, s.min_total_fraction * float(R0 @ R0))
+        screened |= {repr(t.cand) for t in trials if t.cand.name == "torsional_mode" and t.dss < 0.25 * thresh}
         step = {"residual_energy": ss, "threshold": thresh,
                 "ranking": [{"candidate": repr(t.cand), "effect": t.cand.name, "target": t.cand.target,
                              "explained_share": t.dss / ss if ss > 0 else 0.0} for t in trials[:6]]}
@@ -137,6 +140,7 @@ def verification_changes(ctx: Context, accepted: list[Trial]) -> tuple[dict, lis
     rig = []
     meas = [np.zeros_like(m.nominal) for m in ctx.models]
     psi_free = None
+    psi_runs = None
     for t in accepted:
         ch = t.cand.changes(t.x, t.info, ctx)
         for k in kin:
@@ -153,11 +157,12 @@ def verification_changes(ctx: Context, accepted: list[Trial]) -> tuple[dict, lis
                 psi_free = t.info["psi_rad"]
         if "rig_scale" in ch:
             rig.extend(ch["rig_scale"])
+            psi_runs = t.info.get("psi_runs")
         mt = t.cand.measurement_term(t.x, t.info, ctx)
         if mt is not None:
             meas = [a + b for a, b in zip(meas, mt)]
     changes = dict(kin, micro=None if micro == ctx.micro_nominal else micro, rig_scale=tuple(rig))
-    return {"changes": changes, "psi_free": psi_free}, meas
+    return {"changes": changes, "psi_free": psi_free, "psi_runs": psi_runs}, meas
 
 
 def verify(ctx: Context, accepted: list[Trial]) -> list[np.ndarray]:
@@ -166,8 +171,12 @@ def verify(ctx: Context, accepted: list[Trial]) -> list[np.ndarray]:
         return [m.nominal.copy() for m in ctx.models]
     spec, meas = verification_changes(ctx, accepted)
     out = []
-    for m, mt in zip(ctx.models, meas):
-        psi = spec["psi_free"] if spec["psi_free"] is not None else m.psi
+    for r, (m, mt) in enumerate(zip(ctx.models, meas)):
+        psi = m.psi
+        if spec["psi_runs"] is not None:
+            psi = spec["psi_runs"][r]
+        elif spec["psi_free"] is not None and not m.psi_identifiable:
+            psi = spec["psi_free"]
         ch = ModelChanges(mesh_phase_rad=psi, **spec["changes"])
         if ch.kinematic_in is None and ch.kinematic_out is None and ch.micro is None and not ch.rig_scale \
                 and math.isclose(psi, m.psi):
