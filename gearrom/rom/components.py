@@ -234,18 +234,22 @@ class Clutch(Component):
 
 @dataclass(frozen=True)
 class Motor(Component):
-    """Speed-controlled motor: rotor inertia [kg m^2] and speed-loop gain ``c`` [N m s/rad].
+    """Speed-controlled motor: rotor inertia [kg m^2], speed-loop gain ``c`` [N m s/rad] and optional
+    integral gain ``k_i`` [N m/rad].
 
-    The torque is ``T_ff + c (Omega - omega)`` (proportional speed law, feed-forward ``T_ff`` = the
-    nominal input torque): in deviation coordinates a damper to ground plus a constant load.
+    The torque is ``T_ff + c (Omega - omega) + k_i integral(Omega - omega) dt`` (PI speed law,
+    feed-forward ``T_ff`` = the nominal input torque): in deviation coordinates a damper and a spring
+    to ground plus a constant load. With ``k_i = 0`` (P law) the nominal rotation is a free mode.
     """
 
     station: str
     inertia: float
     c_speed: float
+    k_i: float = 0.0
 
     def elements(self, stations):
-        return [Element(((self.station, RZ),), M=np.array([[self.inertia]]), D=np.array([[self.c_speed]]))]
+        return [Element(((self.station, RZ),), M=np.array([[self.inertia]]), D=np.array([[self.c_speed]]),
+                        K=np.array([[self.k_i]]))]
 
 
 @dataclass(frozen=True)

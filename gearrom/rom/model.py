@@ -138,6 +138,20 @@ class Drivetrain:
             r[self.index(s.name, RZ)] = s.spin
         return r
 
+    @cached_property
+    def free_rotation(self) -> bool:
+        """True when the nominal rotation is a zero-stiffness mode (speed loop without an angle term)."""
+        _, K, _, _ = self.structure
+        return bool(np.abs(K @ self.rigid_mode).max() <= 1e-9 * np.abs(K).max())
+
+    def gauge(self, A: np.ndarray) -> np.ndarray:
+        """``A`` plus a penalty on the nominal-rotation component when that mode is free (else ``A``)."""
+        if not self.free_rotation:
+            return A
+        M = self.structure[0]
+        mr = M @ self.rigid_mode
+        return A + (np.trace(A) / max(float(mr @ mr), 1e-30)) * np.outer(mr, mr)
+
     def mesh_mass(self) -> float:
         """Equivalent mesh mass ``1 / (rb1^2/J1 + rb2^2/J2)`` [kg] from the gear disks."""
         J = []
@@ -186,6 +200,4 @@ class Drivetrain:
         f_nom = self.nominal_force(torque_out)
         A = K + k * np.outer(self.w, self.w)
         rhs = self.loads(torque_out) - self.w * (f_nom - k * e)
-        mr = M @ self.rigid_mode
-        scale = np.trace(A) / max(float(mr @ mr), 1e-30)
-        return np.linalg.solve(A + scale * np.outer(mr, mr), rhs)
+        return np.linalg.solve(self.gauge(A), rhs)

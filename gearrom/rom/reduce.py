@@ -72,9 +72,7 @@ def reduce(model: Drivetrain, rpm_in: float, torque_out: float, cutoff: float | 
         # static correction: add the static responses to a unit mesh force and to the loads, so that
         # every quasi-static state (Sherman-Morrison: span{K^+ F, K^+ w}) is represented exactly
         Kl = Ks + kbar * np.outer(w, w)
-        mr = M @ model.rigid_mode
-        A = Kl + (np.trace(Kl) / float(mr @ mr)) * np.outer(mr, mr)
-        psi = np.linalg.solve(A, np.column_stack([w, model.loads(torque_out)]))
+        psi = np.linalg.solve(model.gauge(Kl), np.column_stack([w, model.loads(torque_out)]))
         V = np.column_stack([phi, psi])
         lam, Q = sla.eigh(V.T @ Kl @ V, V.T @ M @ V)
         phi = V @ Q

@@ -35,7 +35,7 @@ DEFAULTS: dict[str, dict[str, Any]] = {
     "bearings": {"ball_radial_N_per_um": 200.0, "ball_axial_N_per_um": 50.0, "needle_radial_N_per_um": 300.0,
                  "damping_beta_us": 5.0},
     "clutch": {"stiffness_Nm_per_rad": 200000.0, "damping_Nms_per_rad": 1.0, "hub_inertia_kg_m2": 5e-4},
-    "motor": {"inertia_kg_m2": 0.02, "speed_gain_Nms_per_rad": 20.0},
+    "motor": {"inertia_kg_m2": 0.02, "speed_gain_Nms_per_rad": 20.0, "integral_gain_Nm_per_rad": 0.0},
     "load": {"inertia_kg_m2": 0.05},
 }
 ROM_DEFAULTS = {"mesh_damping_ratio": 0.05, "shaft_damping_beta_us": 2.0, "backlash_um": 50.0,
@@ -160,7 +160,8 @@ def build_rig(config: GearConfig | str | Path, torque_out: float | None = None,
                                 _num(s, "clutch_radius_mm", f"rig.{table}", src) * 1e-3, "clutch", shaft))
     mo, lo = sec["motor"], sec["load"]
     comps.append(Motor("motor", _num(mo, "inertia_kg_m2", "rig.motor", src),
-                       _num(mo, "speed_gain_Nms_per_rad", "rig.motor", src, allow_zero=True)))
+                       _num(mo, "speed_gain_Nms_per_rad", "rig.motor", src, allow_zero=True),
+                       _num(mo, "integral_gain_Nm_per_rad", "rig.motor", src, allow_zero=True)))
     comps.append(Load("brake", _num(lo, "inertia_kg_m2", "rig.load", src)))
     torque = cfg.operating.torque_out if torque_out is None else float(torque_out)
     ex = excitation if excitation is not None else load_excitation(cfg, rom, torque)

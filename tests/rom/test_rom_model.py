@@ -149,3 +149,18 @@ def test_helical_static_bearing_reactions_balance_mesh_force(rig):
         fy = sum(b.k_radial * x[rig.index(b.station, UY)] for b in (ball, needle))
         assert sign * fx == pytest.approx(ft * math.sin(rig.pair.alpha_wt), rel=1e-6)
         assert sign * fy == pytest.approx(ft * math.cos(rig.pair.alpha_wt), rel=1e-6)
+
+
+def test_pi_speed_law(tmp_path):
+    """With an integral term the nominal rotation is no longer free; statics and modes stay consistent."""
+    from gearrom.rom.modal import modal_analysis
+
+    p = tmp_path / "pi.toml"
+    p.write_text('extends = "thesis-rig"\n[rig.motor]\nintegral_gain_Nm_per_rad = 2000.0\n')
+    model = build_rig(p)
+    assert not model.free_rotation
+    m = modal_analysis(model, 1000.0, fmax=500.0)
+    # J_total ~ 0.05 kg m^2 on a 2000 N m/rad angle loop: a new low mode of a few Hz (sqrt(k/J)/2 pi ~ 30 Hz)
+    assert 1.0 < m.freqs[0] < 100.0
+    run = simulate_run(model, 60.0, duration_s=0.02)
+    assert np.allclose(run.force, model.nominal_force(120.0), rtol=2e-3)
