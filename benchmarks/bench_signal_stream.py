@@ -107,10 +107,11 @@ def main() -> int:
         sys.stdout.write(json.dumps(process(path)) + "\n")
         return 0
     t0 = time.perf_counter()
+    gen_s = None  # None: a kept data file was reused
     if not (a.reuse and path.is_file()):
         subprocess.run([sys.executable, __file__, "--stage", "generate", "--seconds", str(a.seconds), "--dir",
                         str(a.dir)], check=True)
-    gen_s = time.perf_counter() - t0
+        gen_s = time.perf_counter() - t0
     runs = []
     for _ in range(a.repeat):
         out = subprocess.run([sys.executable, __file__, "--stage", "process", "--dir", str(a.dir)], check=True,
