@@ -14,12 +14,12 @@ from gearrom.rom.mesh import Effects, ExtraTE, LoadRipple, PitchDeviations, Runo
 from gearrom.rom.modal import CampbellResult, ModalResult, campbell, modal_analysis
 from gearrom.rom.model import Drivetrain, MeshSpec
 from gearrom.rom.result import DynamicRun
-from gearrom.rom.rig import build_rig
+from gearrom.rom.rig import build_rig, rig_parameters, with_overrides
 from gearrom.rom.simulate import simulate_run
 from gearrom.rom.sweep import SweepResult, parse_rpm, run_sweep
 
 __all__ = [
     "CampbellResult", "Drivetrain", "DynamicRun", "Effects", "ExtraTE", "LoadRipple", "MeshSpec", "ModalResult",
     "PitchDeviations", "Runout", "SweepResult", "build_rig", "campbell", "gmf_estimate", "modal_analysis",
-    "parse_rpm", "plot_transfer", "run_sweep", "simulate_run", "state_space",
+    "parse_rpm", "plot_transfer", "rig_parameters", "run_sweep", "simulate_run", "state_space", "with_overrides",
 ]

@@ -86,8 +86,62 @@ def load_excitation(cfg: GearConfig, rom: dict, torque: float) -> MeshExcitation
     return ex
 
 
+def rig_parameters(config: GearConfig | str | Path) -> dict[str, Any]:
+    """Every ``[rig]`` / ``[rom]`` parameter with its effective value (config or default), dotted keys.
+
+    The keys (e.g. ``"rig.clutch.stiffness_Nm_per_rad"``) are the ones :func:`build_rig` accepts in
+    ``overrides``.
+    """
+    cfg = _load(config)
+    out: dict[str, Any] = {}
+    rig = cfg.section("rig")
+    for shaft, table in (("in", "input_shaft"), ("out", "output_shaft")):
+        for k, v in _merged(rig.get(table, {}), SHAFT_DEFAULTS[shaft], f"rig.{table}", cfg.source).items():
+            out[f"rig.{table}.{k}"] = v
+    for name, d in DEFAULTS.items():
+        for k, v in _merged(rig.get(name, {}), d, f"rig.{name}", cfg.source).items():
+            out[f"rig.{name}.{k}"] = v
+    for k, v in rom_section(cfg).items():
+        out[f"rom.{k}"] = v
+    return out
+
+
+def with_overrides(config: GearConfig | str | Path, overrides) -> GearConfig:
+    """A copy of ``config`` with dotted-key values replaced (``{"rig.clutch.stiffness_Nm_per_rad": 3e5}``).
+
+    Raises
+    ------
+    ConfigError
+        A key that is not a ``rig.*`` / ``rom.*`` parameter (see :func:`rig_parameters`).
+    """
+    import copy
+
+    from gearrom.config import from_dict
+
+    cfg = _load(config)
+    known = rig_parameters(cfg)
+    raw = copy.deepcopy(dict(cfg.raw))
+    for key, value in dict(overrides).items():
+        if key not in known:
+            raise ConfigError(f"override {key!r} is not a rig/rom parameter (known: {', '.join(sorted(known))})")
+        parts = key.split(".")
+        node = raw
+        for p in parts[:-1]:
+            node = node.setdefault(p, {})
+        node[parts[-1]] = value
+    return from_dict(raw, source=cfg.source, check=False)
+
+
+def _load(config) -> GearConfig:
+    if isinstance(config, GearConfig):
+        return config
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return load_config(config)
+
+
 def build_rig(config: GearConfig | str | Path, torque_out: float | None = None,
-              excitation: MeshExcitation | None = None) -> Drivetrain:
+              excitation: MeshExcitation | None = None, overrides=None) -> Drivetrain:
     """Build the rig drivetrain of a config (``[rig]``, ``[rom]`` sections; defaults = thesis-rig assumptions).
 
     Parameters
@@ -98,16 +152,16 @@ def build_rig(config: GearConfig | str | Path, torque_out: float | None = None,
         Load torque [N m] for the excitation table (default: the config's operating torque).
     excitation : MeshExcitation, optional
         Use this table instead of the configured one.
+    overrides : mapping, optional
+        Dotted-key parameter values replacing the config's (see :func:`rig_parameters`), e.g. for
+        identification: ``{"rig.clutch.stiffness_Nm_per_rad": 3e5, "rom.mesh_damping_ratio": 0.08}``.
 
     Raises
     ------
     ConfigError
         Unknown keys, non-positive values, stations out of order (the message names file and key).
     """
-    if not isinstance(config, GearConfig):
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            config = load_config(config)
+    config = _load(config) if not overrides else with_overrides(config, overrides)
     cfg, src = config, config.source
     pair = cfg.pair
     rig = cfg.section("rig")

@@ -164,3 +164,16 @@ def test_pi_speed_law(tmp_path):
     assert 1.0 < m.freqs[0] < 100.0
     run = simulate_run(model, 60.0, duration_s=0.02)
     assert np.allclose(run.force, model.nominal_force(120.0), rtol=2e-3)
+
+
+def test_overrides_change_the_model():
+    from gearrom.rom import rig_parameters
+    from gearrom.rom.modal import modal_analysis
+
+    params = rig_parameters("thesis-rig")
+    assert params["rig.clutch.stiffness_Nm_per_rad"] == 200000.0 and "rom.mesh_damping_ratio" in params
+    base = modal_analysis(build_rig("thesis-rig"), 0.0, fmax=2e3)
+    soft = modal_analysis(build_rig("thesis-rig", overrides={"rig.motor.inertia_kg_m2": 0.08}), 0.0, fmax=2e3)
+    assert soft.freqs[0] < base.freqs[0]  # a heavier motor rotor lowers the first torsional mode
+    with pytest.raises(ConfigError, match="not a rig/rom parameter"):
+        build_rig("thesis-rig", overrides={"rig.motor.mass_kg": 1.0})
