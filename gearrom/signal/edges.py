@@ -221,8 +221,8 @@ class EdgeStream:
                              f"time stamp decreases (previous edge at {self.label} {e_row[j]}, t={fmt_t(e_t[j])})")
         ref = self._reference(d)
         r = d / ref
-        if self.last_t is None or self._prev_d.size < 2:  # start of the channel: no speed reference yet
-            r[:2 - self._prev_d.size] = 1.0
+        unchecked = 2 - self._prev_d.size  # start of the channel: no speed reference before these intervals
+        r[:unchecked] = 1.0
         # intervals [0, n_dec) are decided now; the last _TAIL edges wait for the next chunk
         n_dec = n - 1 if final else n - 1 - self._TAIL
         if n_dec <= 0:
@@ -233,10 +233,15 @@ class EdgeStream:
             r = r.copy()
             self._remove_doubles(small, r, keep, d, e_t, e_row)
         n_acc = n_dec + 1  # edges e[0..n_dec] are accepted or removed now; e[0] was accepted earlier
-        acc = np.flatnonzero(keep[:n_acc])
-        ta = e_t[acc]
-        dk = np.diff(ta)
-        rk = dk / ref[acc[1:] - 1]
+        if small.size:
+            acc = np.flatnonzero(keep[:n_acc])
+            ta = e_t[acc]
+            dk = np.diff(ta)
+            rk = dk / ref[acc[1:] - 1]
+            rk[acc[1:] - 1 < unchecked] = 1.0
+        else:  # the usual case: no edge removed, slices instead of index arrays
+            acc = np.arange(n_acc)
+            ta, dk, rk = e_t[:n_acc], d[:n_dec], r[:n_dec]
         inc = np.ones(dk.size, np.int64)
         gaps = np.flatnonzero(rk > self.s.gap_ratio)
         for g in gaps:
