@@ -275,3 +275,22 @@ def test_windows_csv_with_bom_and_crlf(base_run, tmp_path):
     (tmp_path / "bad.csv").write_bytes(b"\xef\xbb\xbf" + "".join(lines).replace("\n", "\r\n").encode())
     a, b = load_angles(base_run), load_angles(path)
     np.testing.assert_array_equal(a.theta_out_rad, b.theta_out_rad)
+
+
+@pytest.mark.parametrize("chunk", [97, 1000, 4099])
+def test_repairs_independent_of_chunking(base_run, tmp_path, chunk):
+    """A double edge and dropped edges near chunk boundaries: the same repairs and angles for any chunk size."""
+    lines = _lines(base_run)
+    rows = rows_of(lines, "input")
+    i = rows[5000]
+    t0, t1 = t_of(lines[i]), t_of(lines[rows[5001]])
+    gone = set(rows_of(lines, "output")[6000:6002])
+    lines.insert(i + 1, f"input,{t0 + 0.4 * (t1 - t0):.10f}\n")
+    lines = [ln for k, ln in enumerate(lines) if k not in gone]
+    path = corrupted(base_run, tmp_path, lines)
+    one = load_angles(path)
+    many = load_angles(path, ReadSettings(chunk_rows=chunk))
+    assert [r.to_dict() for r in many.repairs] == [r.to_dict() for r in one.repairs]
+    assert sorted(r.kind for r in one.repairs) == ["double_edge", "dropped_edges"]
+    np.testing.assert_allclose(many.theta_out_rad, one.theta_out_rad, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(many.theta_in_rad, one.theta_in_rad, rtol=0, atol=1e-12)
