@@ -55,6 +55,8 @@ class Drivetrain:
         Modes kept by the reduced time-domain model [Hz].
     max_step : float
         Largest time step [s].
+    min_mesh_share : float
+        The reduced model drops modes whose mesh strain-energy share is below this [-].
     metadata : dict
         Provenance (config name, digest).
     """
@@ -71,6 +73,7 @@ class Drivetrain:
     cutoff_frequency: float = 12e3
     max_step: float = 1e-5
     metadata: dict = field(default_factory=dict)
+    min_mesh_share: float = 0.0
 
     def __post_init__(self) -> None:
         names = [s.name for s in self.stations]

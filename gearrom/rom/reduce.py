@@ -47,7 +47,7 @@ class Reduced:
 
 
 def reduce(model: Drivetrain, rpm_in: float, torque_out: float, cutoff: float | None = None,
-           retain_brake: bool = False) -> Reduced:
+           retain_brake: bool = False, min_share: float | None = None) -> Reduced:
     """Reduce ``model`` at ``rpm_in`` and ``torque_out`` (see module docstring).
 
     Parameters
@@ -56,8 +56,12 @@ def reduce(model: Drivetrain, rpm_in: float, torque_out: float, cutoff: float | 
         Highest kept natural frequency [Hz] (default ``model.cutoff_frequency``; ``inf`` keeps all).
     retain_brake : bool
         Also make the brake angle a coordinate (for a time-varying brake torque).
+    min_share : float, optional
+        Also drop modes whose mesh strain-energy share is below this (they are not excited by the mesh;
+        0 keeps all modes below the cutoff). Default ``model.min_mesh_share``.
     """
     cutoff = model.cutoff_frequency if cutoff is None else cutoff
+    min_share = model.min_mesh_share if min_share is None else min_share
     M, Ks, Ds, G = model.structure
     kbar = model.excitation.mean_stiffness(torque_out)
     w = model.w
@@ -65,6 +69,17 @@ def reduce(model: Drivetrain, rpm_in: float, torque_out: float, cutoff: float | 
     lam = np.maximum(lam, 0.0)
     freqs = np.sqrt(lam) / (2 * math.pi)
     keep = freqs <= cutoff
+    if min_share > 0:
+        # drop modes the mesh cannot excite (mesh strain-energy share below min_share), except the
+        # nominal rotation and, when retained, modes that move the brake
+        share = np.where(lam > 0, kbar * (w @ phi) ** 2 / np.where(lam > 0, lam, 1.0), 1.0)
+        relevant = (share >= min_share) | (freqs < 1e-3 * freqs.max())
+        if retain_brake and model.load_station is not None:
+            from gearrom.rom.components import RZ
+
+            row = phi[model.index(model.load_station, RZ)]
+            relevant |= np.abs(row) >= 1e-3 * np.abs(row).max()
+        keep &= relevant
     if keep.sum() < 2:
         raise ModelError(f"cutoff {cutoff:.4g} Hz keeps fewer than 2 modes of model {model.name!r}")
     phi, freqs = phi[:, keep], freqs[keep]

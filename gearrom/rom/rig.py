@@ -39,7 +39,8 @@ DEFAULTS: dict[str, dict[str, Any]] = {
     "load": {"inertia_kg_m2": 0.05},
 }
 ROM_DEFAULTS = {"mesh_damping_ratio": 0.05, "shaft_damping_beta_us": 2.0, "backlash_um": 50.0,
-                "cutoff_frequency_kHz": 12.0, "max_step_us": 10.0, "excitation": "analytical",
+                "cutoff_frequency_kHz": 12.0, "min_mesh_energy_share": 1e-6, "max_step_us": 10.0,
+                "excitation": "analytical",
                 "excitation_torques_Nm": [], "n_theta": 256}
 
 
@@ -226,5 +227,6 @@ def build_rig(config: GearConfig | str | Path, torque_out: float | None = None,
         encoders=tuple(encoders), motor_station="motor", load_station="brake",
         cutoff_frequency=_num(rom, "cutoff_frequency_kHz", "rom", src) * 1e3,
         max_step=_num(rom, "max_step_us", "rom", src) * 1e-6,
+        min_mesh_share=_num(rom, "min_mesh_energy_share", "rom", src, allow_zero=True),
         metadata={"config": cfg.name, "config_digest": cfg.digest(), "torque_out_Nm": torque},
     )
