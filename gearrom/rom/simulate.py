@@ -8,12 +8,15 @@ The exudyn system holds (see :mod:`gearrom.rom.reduce`)
 * the mesh: ``ObjectConnectorCoordinateSpringDamperExt`` between ground and the coordinate
   ``delta_t`` with limit stops: upper stop at ``e0 = e - F_nom/k`` (drive flank), lower stop at
   ``mean(e0) - backlash`` (back flank), stop stiffness ``k`` and damping ``c``. A pre-step function sets
-  ``k`` and ``e0`` once per step from the mesh angles at the step's midpoint (nominal rotation; the
-  angular deviation, < 1e-4 of a mesh period, is neglected in the phase);
+  ``k`` and ``e0`` once per step to their averages over the step (4-point midpoint rule; mesh angles
+  from the nominal rotation: the angular deviation, < 1e-4 of a mesh period, is neglected in the
+  phase). Holding them over a step makes the scheme second order in ``h``: with ``h = 10 us`` the GMF
+  amplitudes of the discontinuous ISO spur table are within ~3 % of ``h = 2 us``;
 * an optional ``LoadCoordinate`` for brake torque ripple on the retained brake coordinate.
 
-Explicit RK44 with a fixed step ``h = min(max_step, 2.2/omega_max, T_mesh/32)``, ``omega_max`` being the
-stiffest kept mode at the largest mesh stiffness. The run starts from the static preload plus the
+Explicit RK44 with a fixed step ``h = min(max_step, 2.2/rho, T_mesh/32)``, ``rho`` being the spectral
+radius of the reduced first-order system at the largest mesh stiffness, shortened so that it divides
+the output sample period (sensors sample on steps, without jitter). The run starts from the static preload plus the
 linear periodic response (:func:`gearrom.rom.reduce.periodic_initial_state`), settles, then records.
 """
 from __future__ import annotations
