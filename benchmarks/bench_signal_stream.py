@@ -122,6 +122,7 @@ def main() -> int:
     figures["runs"] = [{k: r[k] for k in ("throughput_edges_per_s", "total_s", "peak_rss_MB",
                                           "load_average_1min_before")} for r in runs]
     figures.update(seconds=a.seconds, rpm_in=RPM, edges_per_rev=EDGES, clock_hz=CLOCK, generate_s=gen_s,
+                   data_reused=gen_s is None,
                    target_edges_per_s=5e6, target_peak_MB=2000,
                    note="median of --repeat processing runs, each in a fresh child process (peak RSS is its own; "
                         "imports and generation excluded). Machine: 2 cores shared with other helpers at run time: "
