@@ -110,9 +110,10 @@ def _evidence(ctx: Context, t: Trial, D: list) -> str:
         te = _line_amp(d[0], m.run, shaft) / UM
         oth_meas = _line_amp(d[other], m.run, shaft) / UM
         oth_pred = _line_amp(c[other], m.run, shaft) / UM
-        txt += (f"; order 1 of the {shaft} shaft: {te:.3g} um in the TE; the other channel ({'output' if other == 2 else 'input'}) "
-                f"moves {oth_meas:.3g} um at that order (this effect predicts {oth_pred:.3g} um: "
-                f"{'real shaft motion, a mesh excitation' if name == 'eccentricity' else 'none, a measurement error'})")
+        txt += (f"; order 1 of the {shaft} shaft: {te:.3g} um in the TE; the other channel "
+                f"({'output' if other == 2 else 'input'}) moves {oth_meas:.3g} um at that order "
+                + ("(real shaft motion: a mesh excitation, not a measurement error)" if name == "eccentricity"
+                   else f"(fitted {oth_pred:.3g} um: an encoder error moves no shaft)"))
     elif name == "pitch_error":
         txt += f"; impulsive once-per-rev pattern of the {t.cand.target.split('_')[0]} gear (comb of its shaft orders)"
     elif name in ("tip_relief", "lead_crowning", "helix_slope"):

@@ -16,7 +16,8 @@ The stacked, weighted residual of all runs (te weight 1, channels ``channel_weig
 by each candidate alone (bounded least squares: :func:`scipy.optimize.lsq_linear` for the linear
 ones, bounded scalar search for the others). Forward selection adds the candidate that removes the
 most residual energy while it is significant (``kappa`` noise variances per parameter, at least
-``min_fraction`` of what is left and ``min_total_fraction`` of the initial residual); a candidate whose explained energy falls short of the best by
+``min_fraction`` of what is left and ``min_total_fraction`` of the initial residual, and its TE
+contribution at least ``min_effect_noise`` times the noise rms); a candidate whose explained energy falls short of the best by
 less than ``max(2 kappa noise variances per parameter, ambiguity x best)`` is reported as not
 separable from it by these data.
 """
@@ -46,10 +47,11 @@ class FitSettings:
 
     channel_weight: float = 0.5
     max_effects: int = 3
-    min_fraction: float = 0.15
+    min_fraction: float = 0.25
     min_total_fraction: float = 0.002
+    min_effect_noise: float = 0.5
     kappa: float = 25.0
-    ambiguity: float = 0.01
+    ambiguity: float = 0.002
     shared_shaft_phase: bool = True
     rig_parameters: tuple[str, ...] = ("k_clutch", "k_shaft_in", "mesh_stiffness")
     candidates: tuple[str, ...] | None = None
@@ -150,7 +152,21 @@ def _theta(m: RunModel, shaft: str) -> np.ndarray:
 
 
 class OncePerRev(Candidate):
-    """eccentricity (through the drivetrain) or encoder_eccentricity (measurement only)."""
+    """eccentricity (through the drivetrain) or encoder_eccentricity (measurement only).
+
+    The TE is the difference of the two channels, so the channels add one piece of information: how
+    a once-per-rev TE component splits between them. An encoder error sits in its own channel only
+    (split fixed at 1 or 0). Gear runout moves the drivetrain; how the motion splits depends on the
+    rig's dynamics, which a model of another rig may get wrong, so the split is a free complex number
+    per run (``u_in = d``, ``u_out = d - c`` for the TE coefficient ``c``). Runout is thus favoured
+    exactly when the other channel moves coherently at that order. Limitation: common-mode motion at
+    the same order from another source (e.g. a once-per-rev motor torque ripple) looks the same.
+    """
+
+    def _te_wave(self, m: RunModel, shaft: str, basis: complex) -> np.ndarray:
+        if self.name == "eccentricity":
+            return m.response(shaft, {1: basis * UM})[0]
+        return (basis * UM * np.exp(1j * _theta(m, shaft))).real
 
     def _cols(self, ctx: Context) -> list:
         shaft = _shaft(self.target)
@@ -160,11 +176,11 @@ class OncePerRev(Candidate):
         for basis in (1.0, 1j):
             per = []
             for m in ctx.models:
+                v = _dt(self._te_wave(m, shaft, basis))
+                z = np.zeros_like(v)
                 if self.name == "eccentricity":
-                    per.append(_dt(m.response(shaft, {1: basis * UM})))
+                    per.append(np.vstack([v, z, -v]))  # TE coefficient c; the split columns follow
                 else:
-                    v = _dt((basis * UM * np.exp(1j * _theta(m, shaft))).real)
-                    z = np.zeros_like(v)
                     per.append(np.vstack([v, v, z]) if shaft == "input" else np.vstack([v, z, -v]))
             if shared:
                 cols.append(per)
@@ -173,16 +189,35 @@ class OncePerRev(Candidate):
                     cols.append([p if i == r else np.zeros_like(p) for i, p in enumerate(per)])
         if not shared:  # reorder to (cos_r, sin_r) pairs
             cols = [c for r in range(nr) for c in (cols[r], cols[nr + r])]
+        if self.name == "eccentricity":  # free split d per run: u_in = d, u_out = d (plus -c above)
+            for r, m in enumerate(ctx.models):
+                for basis in (1.0, 1j):
+                    v = _dt(self._te_wave(m, shaft, basis))
+                    z = np.zeros_like(v)
+                    cols.append([np.vstack([z, v, v]) if i == r else np.zeros((3, v.size))
+                                 for i in range(nr)])
         return cols
+
+    def _n_c(self, ctx: Context) -> int:
+        return 2 if ctx.s.shared_shaft_phase else 2 * len(ctx.models)
+
+    def _bounds(self, ctx: Context, cols: list) -> tuple[np.ndarray, np.ndarray]:
+        b = np.full(len(cols), self.bound)
+        b[self._n_c(ctx):] = 3 * self.bound
+        return -b, b
 
     def fit(self, ctx, R):
         cols = self._cols(ctx)
-        b = self.bound
-        return _linear_fit(self, ctx, cols, R, -b, b)
+        lo, hi = self._bounds(ctx, cols)
+        t = _linear_fit(self, ctx, cols, R, lo, hi, {"n_c": self._n_c(ctx)})
+        t.n_par = self._n_c(ctx)
+        return t
 
-    def linear_columns(self, ctx, info) -> tuple[list, float, float]:
+    def linear_columns(self, ctx, info) -> tuple[list, np.ndarray, np.ndarray]:
         """Columns (per-run lists) and bounds for a joint linear refit."""
-        return self._cols(ctx), -self.bound, self.bound
+        cols = self._cols(ctx)
+        lo, hi = self._bounds(ctx, cols)
+        return cols, lo, hi
 
     def _amp_phase(self, x):
         pairs = [amp_phase(x[i], x[i + 1]) for i in range(0, len(x), 2)]
@@ -190,7 +225,7 @@ class OncePerRev(Candidate):
         return a, pairs[0][1], pairs
 
     def report(self, x, info):
-        a, ph, pairs = self._amp_phase(x)
+        a, ph, pairs = self._amp_phase(x[:info.get("n_c", len(x))])
         out = {"amplitude_um": a, "phase_deg": ph}
         if len(pairs) > 1:
             out["phase_deg_per_run"] = [p[1] for p in pairs]
@@ -199,7 +234,7 @@ class OncePerRev(Candidate):
     def changes(self, x, info, ctx):
         if self.name != "eccentricity":
             return {}
-        a, ph, _ = self._amp_phase(x)
+        a, ph, _ = self._amp_phase(x[:info.get("n_c", len(x))])
         th = np.arange(N_TABLE) * 2 * math.pi / N_TABLE
         tab = a * UM * np.cos(th + math.radians(ph))
         return {"kinematic_in" if _shaft(self.target) == "input" else "kinematic_out": tab}
@@ -248,7 +283,7 @@ class PitchError(Candidate):
     def linear_columns(self, ctx, info) -> tuple[list, float, float]:
         """The column of the selected tooth (per-run list) and bounds for a joint linear refit."""
         k = info["tooth_index"]
-        return [[p[:, :, k] for p in info["window"]]], -self.bound, self.bound
+        return [[p[:, :, k] for p in info["window"]]], np.array([-self.bound]), np.array([self.bound])
 
     def report(self, x, info):
         return {"tooth_index": int(info["tooth_index"]), "deviation_um": float(x[0])}
@@ -277,59 +312,63 @@ class Micro(Candidate):
     def _lo(self):
         return -self.bound if self.name == "helix_slope" else 0.0
 
-    def _basis(self, ctx: Context):
-        """Per run: complex signals V_h = H(h z1) e^{i h z1 theta} for h = 1..N_MESH_HARMONICS (0 where H is absent)."""
-        blocks = []
+    def _waves(self, ctx: Context):
+        """Per run: e^{i h z1 theta_in} (h = 1..N_MESH_HARMONICS) on the run's grid, and H(h z1) (3, N) or 0."""
+        out = []
         for m in ctx.models:
             z1 = m.run.mesh.z1
             orders, H = m.H["input"]
             idx = {int(q): j for j, q in enumerate(orders)}
-            cols = []
-            for h in range(1, N_MESH_HARMONICS + 1):
-                j = idx.get(h * z1)
-                V = (np.zeros((3, m.run.t_s.size), complex) if j is None
-                     else H[:, j][:, None] * np.exp(1j * h * z1 * m.run.theta_in_rad)[None, :])
-                cols.append(V)
-            blocks.append(cols)
-        return blocks
+            hs = np.arange(1, N_MESH_HARMONICS + 1)
+            W = np.exp(1j * np.outer(hs * z1, m.run.theta_in_rad))  # (N, n)
+            Hh = np.stack([H[:, idx[h * z1]] if h * z1 in idx else np.zeros(3, complex) for h in hs], axis=1)
+            out.append((W, Hh))
+        return out
 
-    def _contrib(self, ctx, blocks, value, psi_free):
+    def _coeffs(self, ctx: Context, m: RunModel, Hh: np.ndarray, value: float, psi: float | None) -> np.ndarray:
+        """Complex line coefficients (3, N) of the contribution: the nominal lines plus the STE change
+        through H, at mesh phase psi, minus the nominal lines at the run's own mesh phase."""
+        z1 = m.run.mesh.z1
+        hs = np.arange(1, N_MESH_HARMONICS + 1)
+        d = ctx.ste_lines(m.run.torque_out_Nm, self._mods(ctx, value)) - ctx.ste_lines(m.run.torque_out_Nm,
+                                                                                      ctx.micro_nominal)
+        nom = np.zeros((3, N_MESH_HARMONICS), complex)
+        k = min(N_MESH_HARMONICS, m.gmf_model3.shape[1])
+        nom[:, :k] = m.gmf_model3[:, :k]
+        p = m.psi if (psi is None or m.psi_identifiable) else psi
+        return (nom + Hh * d[None, :]) * np.exp(1j * hs * z1 * p)[None, :] - nom * np.exp(1j * hs * z1 * m.psi)[None, :]
+
+    def _contrib(self, ctx, waves, value, psi_free):
         out = []
-        for m, cols in zip(ctx.models, blocks):
-            d = ctx.ste_lines(m.run.torque_out_Nm, self._mods(ctx, value)) - ctx.ste_lines(m.run.torque_out_Nm,
-                                                                                          ctx.micro_nominal)
-            psi = m.psi if (psi_free is None or m.psi_identifiable) else psi_free
-            z1 = m.run.mesh.z1
-            g = d * np.exp(1j * np.arange(1, N_MESH_HARMONICS + 1) * z1 * psi)
-            out.append(_dt(sum((g[h] * cols[h]).real for h in range(N_MESH_HARMONICS))))
+        for m, (W, Hh) in zip(ctx.models, waves):
+            c = self._coeffs(ctx, m, Hh, value, psi_free)
+            out.append(_dt((c @ W).real))
         return out
 
     def fit(self, ctx, R):
-        blocks = self._basis(ctx)
+        waves = self._waves(ctx)
         free = not all(m.psi_identifiable for m in ctx.models)
         z1 = ctx.models[0].run.mesh.z1
         psis = np.linspace(0, 2 * math.pi / z1, 61)[:-1] if free else [None]
         lo, hi = self._lo(), self.bound
-        # contributions are linear in the complex line coefficients g_h: precompute the Gram system
         nr = len(ctx.models)
+        # the contribution is linear in the (3 x N) complex line coefficients per run: Gram system
         cols = []
-        for r, bl in enumerate(blocks):
+        for r, (W, _) in enumerate(waves):
             for part in ("re", "im"):
-                for h in range(N_MESH_HARMONICS):
-                    per = [np.zeros((3, m.run.t_s.size)) for m in ctx.models]
-                    per[r] = _dt(bl[h].real if part == "re" else -bl[h].imag)
-                    cols.append(ctx.stack(per))
+                for row in range(3):
+                    for h in range(N_MESH_HARMONICS):
+                        per = [np.zeros((3, m.run.t_s.size)) for m in ctx.models]
+                        per[r][row] = _dt(W[h].real if part == "re" else -W[h].imag)
+                        cols.append(ctx.stack(per))
         Phi = np.column_stack(cols)
         G, b = Phi.T @ Phi, Phi.T @ R
-        h = np.arange(1, N_MESH_HARMONICS + 1)
 
         def coeffs(v, psi):
             c = []
-            for m in ctx.models:
-                d = ctx.ste_lines(m.run.torque_out_Nm, self._mods(ctx, v)) - ctx.ste_lines(m.run.torque_out_Nm,
-                                                                                          ctx.micro_nominal)
-                g = d * np.exp(1j * h * z1 * (m.psi if (psi is None or m.psi_identifiable) else psi))
-                c.extend([*g.real, *g.imag])
+            for m, (_, Hh) in zip(ctx.models, waves):
+                cc = self._coeffs(ctx, m, Hh, v, psi)
+                c.extend([*cc.real.ravel(), *cc.imag.ravel()])
             return np.array(c)
 
         def dss_of(v, psi):
@@ -353,13 +392,13 @@ class Micro(Candidate):
             dpsi = psis[1] - psis[0]
             r = minimize(lambda p: -dss_of(p[0], p[1]), [v0, psi0], method="Nelder-Mead",
                          bounds=[(max(lo, v0 - step), min(hi, v0 + step)), (psi0 - dpsi, psi0 + dpsi)],
-                         options={"xatol": 1e-4 * (hi - lo), "fatol": 1e-6 * abs(best[0]) + 1e-30})
+                         options={"xatol": 1e-4 * (hi - lo), "fatol": 1e-6 * abs(best[0]) + 1e-30, "maxiter": 60})
             if -r.fun > best[0]:
                 v, psi0 = float(r.x[0]), float(r.x[1]) % (2 * math.pi / z1)
             else:
                 v = v0
         d = dss_of(v, psi0)
-        contrib = self._contrib(ctx, blocks, v, psi0)
+        contrib = self._contrib(ctx, waves, v, psi0)
         assert nr == len(contrib)
         return Trial(self, np.array([v]), contrib, d, 2 if free else 1, {"psi_rad": psi0})
 

@@ -54,6 +54,8 @@ class RunModel:
         Broadband noise rms of the measured TE on the working grid, m.
     lines : ndarray
         The GMF lines used for the mesh-phase estimate.
+    gmf_model3 : ndarray of complex, shape (3, n_lines)
+        The nominal model's GMF lines (psi = 0) of te, u_in, u_out.
     """
 
     run: RunData
@@ -66,6 +68,7 @@ class RunModel:
     H: dict = field(default_factory=dict)
     noise_m: float = 0.0
     lines: np.ndarray | None = None
+    gmf_model3: np.ndarray | None = None
 
     def response(self, shaft: str, coeffs: dict[int, complex]) -> np.ndarray:
         """Predicted (3, n) signals for a kinematic error ``Re(sum_q coeffs[q] exp(i q theta_shaft))``."""
@@ -105,13 +108,14 @@ def build_run_model(sim: Simulator, run: RunData, *, with_sensitivity: bool = Tr
     th_s, ys = sim_signals(h0, run.mesh)
     n_h = int(max(1, min(6, math.floor(0.35 * run.fs_hz / run.gmf_hz))))
     lines = mesh_lines(z1, n_h)
-    gm = fit_lines(ys[0] - ys[0].mean(), h0.theta_in_rad, h0.theta_out_rad, lines)
+    gm3 = fit_lines(ys - ys.mean(axis=1, keepdims=True), h0.theta_in_rad, h0.theta_out_rad, lines)
+    gm = gm3[0]
     gmeas = fit_lines(run.y[0], run.theta_in_rad, run.theta_out_rad, lines)
     psi, ok = estimate_mesh_phase(gmeas, gm, z1, noise / 1e-6 / math.sqrt(max(run.y.shape[1], 1) / 2))
     hn = sim.simulate(cond, ModelChanges(mesh_phase_rad=psi)) if psi else h0
     nominal = map_to_run(hn, run)
     rm = RunModel(run=run, cond=cond, psi=psi, psi_identifiable=ok, nominal=nominal, gmf_model=gm, gmf_meas=gmeas,
-                  noise_m=noise, lines=lines)
+                  noise_m=noise, lines=lines, gmf_model3=gm3)
     if with_sensitivity:
         for shaft in ("input", "output"):
             rm.H[shaft] = _sensitivity(sim, rm, hn, shaft)

@@ -82,7 +82,10 @@ def select_effects(ctx: Context, candidates: list, D: list[np.ndarray]) -> tuple
                 "ranking": [{"candidate": repr(t.cand), "effect": t.cand.name, "target": t.cand.target,
                              "explained_share": t.dss / ss if ss > 0 else 0.0} for t in trials[:6]]}
         steps.append(step)
-        if best.dss < thresh:
+        te_rms = math.sqrt(np.mean([np.mean(c[0] ** 2) for c in best.contrib]))
+        noise = math.sqrt(ctx.noise_var)
+        step["best_te_rms_um"] = te_rms / 1e-6
+        if best.dss < thresh or te_rms < s.min_effect_noise * noise:
             step["accepted"] = None
             break
         margin = max(2 * s.kappa * ctx.noise_var * best.n_par, s.ambiguity * best.dss)
@@ -111,8 +114,8 @@ def joint_refit(ctx: Context, accepted: list[Trial], R0: np.ndarray, sweeps: int
             R = R0 - sum((ctx.stack(accepted[i].contrib) for i in non), zero)
             blocks = [accepted[i].cand.linear_columns(ctx, accepted[i].info) for i in lin]
             cols = [c for b in blocks for c in b[0]]
-            lo = np.concatenate([np.full(len(b[0]), b[1]) for b in blocks])
-            hi = np.concatenate([np.full(len(b[0]), b[2]) for b in blocks])
+            lo = np.concatenate([np.broadcast_to(b[1], (len(b[0]),)) for b in blocks])
+            hi = np.concatenate([np.broadcast_to(b[2], (len(b[0]),)) for b in blocks])
             A = np.column_stack([ctx.stack(c) for c in cols])
             x = lsq_linear(A, R, bounds=(lo, hi)).x
             j = 0

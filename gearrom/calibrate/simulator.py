@@ -6,7 +6,7 @@ that contract. Two implementations:
 
 * :class:`gearrom.calibrate.rig.TorsionalRig`: a small torsional drivetrain (numba RK4), always
   available, fast; the default when the exudyn ROM is not importable.
-* :class:`RomSimulator`: adapter to ``gearrom.rom.simulate_run`` (issue 4), used when present.
+* :class:`RomSimulator`: adapter to ``gearrom.rom.simulate_run`` (issue 4), on request.
 
 Conventions of :class:`ModelChanges`
 ------------------------------------
@@ -129,63 +129,87 @@ def periodic_lookup(table: np.ndarray | None):
 
 
 class RomSimulator:
-    """Adapter to the exudyn ROM of issue 4 (``gearrom.rom.simulate_run``).
+    """Adapter to the exudyn ROM of issue 4 (:func:`gearrom.rom.simulate_run`).
 
-    The ROM's API was not final when this was written; the adapter inspects the signature and
-    passes what it accepts: ``e_extra(theta1, theta2)`` for the kinematic errors, ``excitation``
-    for micro-geometry tables, ``load_ripple`` and ``rig`` overrides. Missing hooks raise
-    :class:`CalibrationError` naming them, so the gap is visible rather than silently ignored.
+    Mapping of :class:`ModelChanges`:
+
+    * kinematic errors -> ``Effects(extra=(ExtraTE(fn),))`` with ``fn(theta1, theta2)`` evaluated in the
+      record's angle reference (the ROM passes absolute drive-sense angles);
+    * micro-geometry -> ``build_rig(config, torque, excitation=micro_model.excitation(...))``;
+    * mesh phase -> ``theta0`` chosen so that the input gear stands at ``mesh_phase_rad`` when the
+      record starts (the ROM's mesh table is evaluated at the absolute input angle);
+    * load ripple -> ``Effects(load_ripple=(LoadRipple(order, amplitude, phase),))`` (N m, output order;
+      the ROM writes ``sin``, the phase is shifted by 90 deg to keep this module's cosine convention).
+
+    Gap: the ROM exposes no rig-parameter scaling, so ``rig_scale`` raises and ``tunable()`` is empty
+    (the ``torsional_mode`` candidates are then not evaluated; the report says so).
     """
 
-    name = "gearrom.rom"
+    name = "gearrom.rom (exudyn)"
 
-    def __init__(self, config, micro_model=None):
-        import gearrom.rom as rom  # noqa: F401  (ImportError tells the caller the ROM is absent)
+    def __init__(self, config, micro_model=None, sample_rate_hz: float = 50e3, settle_s: float = 0.02):
+        import gearrom.rom as rom
 
-        if not hasattr(rom, "simulate_run"):
-            raise ImportError("gearrom.rom has no simulate_run yet")
         from gearrom.calibrate.microgeom import SliceMicroModel
 
         self._rom = rom
         self.config = config
         self.micro_model = micro_model or SliceMicroModel()
+        self.sample_rate_hz = float(sample_rate_hz)
+        self.settle_s = round(settle_s * sample_rate_hz) / sample_rate_hz
         self._params = set(inspect.signature(rom.simulate_run).parameters)
+        self._models: dict = {}
+        from gearrom.config import load_config
+
+        self.pair = load_config(config, check=False).pair
+        self.micro = MicroMods.from_pair(self.pair)
 
     def tunable(self) -> dict[str, str]:
         return {}
 
     def modes_hz(self, rig_scale=()) -> list[tuple[float, float]]:
-        return []
+        try:
+            res = self._rom.modal_analysis(self._model(None, 120.0))
+            return [(float(f), float(z)) for f, z in zip(res.freqs, res.damping)]
+        except Exception:  # noqa: BLE001  (modal data are informative only)
+            return []
+
+    def _model(self, micro: MicroMods | None, torque: float):
+        key = (micro, round(torque, 6))
+        if key not in self._models:
+            ex = None
+            if micro is not None and micro != self.micro:
+                ex = self.micro_model.excitation(self.pair, [0.5 * torque, torque, 1.5 * torque], micro)
+            self._models[key] = self._rom.build_rig(self.config, torque, excitation=ex)
+        return self._models[key]
 
     def simulate(self, run: RunConditions, changes: ModelChanges | None = None) -> SimHistory:
-        ch = changes or ModelChanges()
-        kw = {}
-        if ch.kinematic_in is not None or ch.kinematic_out is not None:
-            if "e_extra" not in self._params:
-                raise CalibrationError("gearrom.rom.simulate_run has no 'e_extra' hook: kinematic-error effects "
-                                       "(eccentricity, pitch_error) cannot be simulated with the ROM")
-            f1, f2 = periodic_lookup(ch.kinematic_in), periodic_lookup(ch.kinematic_out)
-            kw["e_extra"] = lambda th1, th2: f1(th1) + f2(th2)
-        if ch.micro is not None:
-            if "excitation" not in self._params:
-                raise CalibrationError("gearrom.rom.simulate_run has no 'excitation' argument for micro-geometry")
-            from gearrom.config import load_config
+        from gearrom.rom import Effects, ExtraTE, LoadRipple
 
-            pair = load_config(self.config, check=False).pair
-            kw["excitation"] = self.micro_model.excitation(pair, [0.5 * run.torque_out_Nm, run.torque_out_Nm,
-                                                                  1.5 * run.torque_out_Nm], ch.micro)
-        if ch.mesh_phase_rad and "mesh_phase_rad" in self._params:
-            kw["mesh_phase_rad"] = ch.mesh_phase_rad
-        elif ch.mesh_phase_rad:
-            raise CalibrationError("gearrom.rom.simulate_run has no 'mesh_phase_rad': the measured mesh phase "
-                                   "cannot be imposed")
-        if ch.load_ripple is not None or ch.rig_scale:
-            raise CalibrationError("RomSimulator: load ripple and rig-parameter scaling are not wired to the ROM yet")
-        res = self._rom.simulate_run(self.config, run.rpm_in, run.torque_out_Nm, run.duration_s, **kw)
-        t = np.asarray(getattr(res, "t_s"), float)
-        th1 = np.asarray(getattr(res, "theta_in_rad"), float)
-        th2 = np.asarray(getattr(res, "theta_out_rad"), float)
-        return SimHistory(t - t[0], th1 - th1[0], th2 - th2[0], info={"simulator": self.name})
+        ch = changes or ModelChanges()
+        if ch.rig_scale:
+            raise CalibrationError("RomSimulator: the exudyn ROM exposes no rig-parameter scaling (rig_scale)")
+        z1, z2 = self.pair.z
+        omega = run.rpm_in * math.pi / 30.0
+        psi = float(ch.mesh_phase_rad)
+        theta0 = psi - omega * self.settle_s  # input gear at psi when the record starts
+        extra, ripple = (), ()
+        if ch.kinematic_in is not None or ch.kinematic_out is not None:
+            f1, f2 = periodic_lookup(ch.kinematic_in), periodic_lookup(ch.kinematic_out)
+            a2 = psi * z1 / z2
+            extra = (ExtraTE(lambda th1, th2: f1(th1 - psi) + f2(th2 - a2), label="calibrate"),)
+        if ch.load_ripple is not None:
+            amp, order, phase = ch.load_ripple
+            ripple = (LoadRipple(order=float(order), amplitude=float(amp) * run.torque_out_Nm,
+                                 phase=float(phase) + math.pi / 2),)
+        model = self._model(ch.micro, run.torque_out_Nm)
+        res = self._rom.simulate_run(model, run.rpm_in, run.torque_out_Nm, duration_s=run.duration_s,
+                                     effects=Effects(extra=extra, load_ripple=ripple),
+                                     sample_rate_hz=self.sample_rate_hz, settle_s=self.settle_s, theta0=theta0)
+        th1 = np.asarray(res.angle("in", "sensor"), float)
+        th2 = np.asarray(res.angle("out", "sensor"), float)
+        t = np.asarray(res.time, float)
+        return SimHistory(t - t[0], th1 - psi, th2 - psi * z1 / z2, info={"simulator": self.name})
 
 
 def default_simulator(config, prefer: str = "auto") -> Simulator:
@@ -196,19 +220,17 @@ def default_simulator(config, prefer: str = "auto") -> Simulator:
     config : str or Path
         Gear configuration name or file.
     prefer : {"auto", "rom", "torsional"}
-        ``"auto"``: the exudyn ROM when it exposes the hooks the library needs, else the torsional rig.
+        ``"rom"``: the exudyn ROM (:class:`RomSimulator`); ``"torsional"``: the small torsional rig
+        model; ``"auto"``: the torsional rig model (fast, and it can re-tune rig parameters for the
+        ``torsional_mode`` candidates, which the ROM cannot yet).
     """
     from gearrom.calibrate.rig import TorsionalRig
 
-    if prefer in ("auto", "rom"):
+    if prefer == "rom":
         try:
-            sim = RomSimulator(config)
-            if {"e_extra", "excitation"} <= sim._params:
-                return sim
-            if prefer == "rom":
-                return sim
-            log.info("gearrom.rom lacks e_extra/excitation hooks; using the torsional rig model")
+            return RomSimulator(config)
         except ImportError as exc:
-            if prefer == "rom":
-                raise CalibrationError(f"the exudyn ROM is not available: {exc}") from exc
+            raise CalibrationError(f"the exudyn ROM is not available: {exc}") from exc
+    if prefer not in ("auto", "torsional"):
+        raise CalibrationError(f"simulator {prefer!r}: choose 'auto', 'rom' or 'torsional'")
     return TorsionalRig.from_config(config)
