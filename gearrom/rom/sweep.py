@@ -11,6 +11,7 @@ import json
 import logging
 import math
 import multiprocessing as mp
+import os
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -23,6 +24,7 @@ from gearrom.excitation.table import netcdf_engine
 log = logging.getLogger(__name__)
 CHANNELS = ("dte_sensor", "dte_clutch", "delta", "force", "ste")
 _MODEL_CACHE: dict = {}
+_BLAS_ENV = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
 
 
 def parse_rpm(spec: str | float | list) -> np.ndarray:
@@ -276,11 +278,22 @@ def run_sweep(config_ref: str | Path, rpms, out_dir: str | Path, *, torque_out: 
 
     bar = tqdm(total=len(todo), desc=f"sweep {cfg.name}", unit="speed", disable=not progress or not todo)
     if processes > 1 and len(todo) > 1:
-        ctx = mp.get_context("fork")
-        with ctx.Pool(processes) as pool:
-            for s in pool.imap_unordered(_run_one, todo):
-                done[s["rpm_in"]] = s
-                bar.update()
+        # fresh worker processes with single-threaded BLAS: the per-speed linear algebra is small, and
+        # multi-threaded BLAS in several processes on few cores slows it down many times
+        ctx = mp.get_context("spawn")
+        saved = {k: os.environ.get(k) for k in _BLAS_ENV}
+        os.environ.update({k: "1" for k in _BLAS_ENV})
+        try:
+            with ctx.Pool(min(processes, len(todo))) as pool:
+                for s in pool.imap_unordered(_run_one, todo):
+                    done[s["rpm_in"]] = s
+                    bar.update()
+        finally:
+            for k, v in saved.items():
+                if v is None:
+                    os.environ.pop(k, None)
+                else:
+                    os.environ[k] = v
     else:
         for t in todo:
             s = _run_one(t)
