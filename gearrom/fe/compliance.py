@@ -1,0 +1,233 @@
+"""Flank influence coefficients of one gear from its plane-strain FE model (computed once per gear).
+
+The loaded (right) flank of each tooth is sampled on a grid uniform in involute arc length
+``sigma = L^2 / (2 r_b)`` (``L`` the roll length) with spacing ``spacing``. Grid point ``a`` of
+tooth 0 carries a unit normal force spread uniformly over the patch ``[sigma_a - s/2, sigma_a + s/2]``
+(a piecewise-constant pressure element); the response at grid point ``b`` of tooth ``j`` is the
+inward normal displacement averaged over the same patch. The loads and read-outs use the same
+operator, so ``G[0]`` is symmetric (Maxwell-Betti) and converges with the mesh like the
+contact pressure it represents. Cyclic symmetry gives the coupling between any two teeth:
+``C(tooth m, a -> tooth n, b) = G[n - m][a, b]``.
+
+The bore is clamped (rigid reference node held fixed), so the compliances contain tooth
+bending, shear, fillet and rim/body deformation down to the bore, and the local contact
+(Hertz) deformation resolved by the fine flank mesh.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import math
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+import scipy.sparse as sp
+
+from gearrom.errors import MeshError
+from gearrom.fe.elastic import ElasticBody2D, locate_on_chain
+from gearrom.fe.mesh2d import MeshSettings, gear_mesh
+
+log = logging.getLogger(__name__)
+
+CODE_VERSION = "compliance-2d-v1"
+
+
+@dataclass(frozen=True, eq=False)
+class FlankCompliance:
+    """Influence coefficients of the loaded flank of one gear.
+
+    Attributes
+    ----------
+    rb : float
+        Base radius [m].
+    sigma : ndarray (n,)
+        Grid in involute arc length from the base circle [m], uniform spacing ``spacing``.
+    spacing : float
+        Grid spacing = patch width [m].
+    offsets : ndarray of int
+        Tooth offsets ``j`` of the blocks in ``G``.
+    G : ndarray (len(offsets), n, n)
+        ``G[k][a, b]``: inward normal displacement at grid ``b`` of tooth ``offsets[k]`` per unit normal
+        force [N] on patch ``a`` of tooth 0 [m/N] (total force over the face width).
+    face_width : float
+        Face width of the plane-strain model [m].
+    info : dict
+        Mesh size, dof count, timings.
+    """
+
+    rb: float
+    sigma: np.ndarray
+    spacing: float
+    offsets: np.ndarray
+    G: np.ndarray
+    face_width: float
+    info: dict
+
+    def block(self, offset: int) -> np.ndarray:
+        """The block ``G`` for tooth offset ``offset`` (zeros if it was not computed)."""
+        k = np.flatnonzero(self.offsets == offset)
+        return self.G[k[0]] if k.size else np.zeros_like(self.G[0])
+
+    @property
+    def roll(self) -> np.ndarray:
+        """Roll length of the grid points [m]."""
+        return np.sqrt(2 * self.rb * self.sigma)
+
+    def save(self, path: str | Path) -> Path:
+        """Write to NPZ (arrays) with the info dict as JSON."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_suffix(".tmp.npz")
+        np.savez(tmp, rb=self.rb, sigma=self.sigma, spacing=self.spacing, offsets=self.offsets, G=self.G,
+                 face_width=self.face_width, info=json.dumps(self.info))
+        tmp.replace(path)
+        return path
+
+    @classmethod
+    def load(cls, path: str | Path) -> "FlankCompliance":
+        with np.load(path) as d:
+            return cls(rb=float(d["rb"]), sigma=d["sigma"], spacing=float(d["spacing"]), offsets=d["offsets"],
+                       G=d["G"], face_width=float(d["face_width"]), info=json.loads(str(d["info"])))
+
+
+def patch_operator(body: ElasticBody2D, edges: np.ndarray, node_coord: np.ndarray, to_coord, sigma: np.ndarray,
+                   spacing: float, lo: float, hi: float, nq: int = 6, what: str = "patch"):
+    """Sparse (ndof, n) operator of unit normal patch loads (equally: patch-averaged normal read-outs).
+
+    Parameters
+    ----------
+    edges : ndarray (k, 2)
+        Boundary edges of the loaded curve.
+    node_coord : ndarray
+        A coordinate of every mesh node that is monotonic along the curve (radius, angle...).
+    to_coord : callable
+        Maps arc length ``sigma`` [m] to that coordinate.
+    sigma, spacing : ndarray, float
+        Patch centres and width in arc length [m]; patches are clipped to ``[lo, hi]``.
+    """
+    a = np.clip(sigma - 0.5 * spacing, lo, hi)
+    b = np.clip(sigma + 0.5 * spacing, lo, hi)
+    frac = (np.arange(nq) + 0.5) / nq
+    sq = a[:, None] + (b - a)[:, None] * frac[None, :]
+    e, xi = locate_on_chain(body.mesh.points, edges, node_coord, to_coord(sq.ravel()), what=what)
+    normals = body.outward_normals(edges[e])
+    col = np.repeat(np.arange(sigma.size), nq)
+    return body.edge_operator(edges[e], xi, -normals, np.full(col.size, 1.0 / nq), col, sigma.size)
+
+
+def flank_grid(pair, i: int, spacing: float, form_radius: float) -> np.ndarray:
+    """Grid of involute arc lengths [m] from just above the form circle to just below the tip."""
+    rb = pair.rb[i]
+    L_lo = math.sqrt(max(form_radius**2 - rb**2, 0.0))
+    L_hi = math.sqrt((0.5 * pair.da[i]) ** 2 - rb**2)
+    s_lo, s_hi = L_lo**2 / (2 * rb), L_hi**2 / (2 * rb)
+    n = int(math.floor((s_hi - s_lo) / spacing - 1e-9))
+    if n < 4:
+        raise MeshError(f"flank grid spacing {spacing * 1e3:.4f} mm leaves fewer than 4 points on the flank")
+    # centre the grid so that the end patches lie inside the flank
+    start = s_lo + 0.5 * (s_hi - s_lo - n * spacing) + 0.5 * spacing
+    return start + spacing * np.arange(n)
+
+
+def compute_compliance(pair, i: int, settings: MeshSettings | None = None, spacing: float | None = None,
+                       offsets: int = 2, nq: int = 6) -> FlankCompliance:
+    """Mesh gear ``i``, factorise it once and compute its flank influence coefficients.
+
+    Parameters
+    ----------
+    pair : GearPair
+    i : int
+        Gear index.
+    settings : MeshSettings
+        Mesh density (default :class:`MeshSettings`).
+    spacing : float, optional
+        Grid spacing / patch width [m] (default: the flank element size).
+    offsets : int
+        Response teeth ``-offsets..offsets``.
+    nq : int
+        Quadrature points per patch.
+    """
+    from gearrom.geometry.profile import tooth_profile
+
+    s = settings or MeshSettings()
+    spacing = spacing or s.flank_size
+    if offsets > s.near_teeth:
+        raise MeshError(f"compliance offsets {offsets} exceed the named teeth near_teeth={s.near_teeth}")
+    t0 = time.perf_counter()
+    mesh = gear_mesh(pair, i, s)
+    t1 = time.perf_counter()
+    g = pair.gears[i]
+    body = ElasticBody2D(mesh, g.material.youngs_modulus, g.material.poisson_ratio, g.face_width)
+    t2 = time.perf_counter()
+    rb = pair.rb[i]
+    form_radius = tooth_profile(pair, i).form_radius
+    sigma = flank_grid(pair, i, spacing, form_radius * (1 + 1e-6))
+    pts = mesh.points
+    radius = np.hypot(pts[:, 0], pts[:, 1])
+
+    def sig_range(edges):
+        r = radius[np.unique(edges)]
+        L = np.sqrt(np.maximum(r**2 - rb**2, 0.0))
+        return L.min() ** 2 / (2 * rb), L.max() ** 2 / (2 * rb)
+
+    ops = {}
+    for j in range(-offsets, offsets + 1):
+        edges = mesh.curves.get(f"involute_r_{j}")
+        if edges is None or edges.size == 0:
+            raise MeshError(f"gear {i}: the mesh has no loaded flank curve for tooth {j}")
+        lo, hi = sig_range(edges)
+        ops[j] = patch_operator(body, edges, radius, lambda sg: np.sqrt(rb**2 + 2 * rb * sg), sigma, spacing,
+                                lo, hi, nq, f"gear {i} tooth {j} flank")
+    P0 = ops[0]
+    R = sp.hstack([ops[j] for j in range(-offsets, offsets + 1)]).tocsc()
+    n = sigma.size
+    G = np.empty((2 * offsets + 1, n, n))
+    block = 16
+    for a in range(0, n, block):
+        U = body.solve(P0[:, a:a + block])
+        resp = (R.T @ U).T  # (cols, (2 off + 1) n)
+        G[:, a:a + block, :] = resp.reshape(resp.shape[0], 2 * offsets + 1, n).transpose(1, 0, 2)
+    t3 = time.perf_counter()
+    diag = np.diag(G[offsets])
+    if np.any(diag <= 0):
+        raise MeshError(f"gear {i}: non-positive flank self-compliance (normals or mesh inverted)")
+    info = {"nodes": int(mesh.points.shape[0]), "triangles": int(mesh.triangles.shape[0]), "dofs": int(body.ndof),
+            "time_mesh_s": t1 - t0, "time_factorise_s": t2 - t1, "time_influence_s": t3 - t2,
+            "settings": asdict(s), "spacing": spacing, "gear": i}
+    log.info("gear %d compliance: %d grid points, %.1f s", i, n, t3 - t0)
+    return FlankCompliance(rb=rb, sigma=sigma, spacing=spacing, offsets=np.arange(-offsets, offsets + 1), G=G,
+                           face_width=g.face_width, info=info)
+
+
+def gear_key(pair, i: int, settings: MeshSettings, spacing: float, offsets: int) -> str:
+    """Hash of everything that affects one gear's compliance (not torque, not micro-geometry)."""
+    g = pair.gears[i]
+    data = {
+        "code": CODE_VERSION, "mn": pair.mn, "alpha_n": pair.alpha_n, "beta": pair.beta, "z": g.z, "x": g.x,
+        "da": pair.da[i], "df": pair.df[i], "dff": pair.dff[i], "tool": [pair.tool_addendum[i], pair.tool_tip_radius[i],
+        g.tool.protuberance, g.tool.protuberance_angle], "b": g.face_width, "bore": g.bore_diameter,
+        "E": g.material.youngs_modulus, "nu": g.material.poisson_ratio, "mesh": asdict(settings),
+        "spacing": spacing, "offsets": offsets,
+    }
+    return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()[:24]
+
+
+def cached_compliance(pair, i: int, settings: MeshSettings | None = None, spacing: float | None = None,
+                      offsets: int = 2, cache_dir: str | Path | None = None) -> FlankCompliance:
+    """:func:`compute_compliance` with a disk cache keyed by :func:`gear_key` (``cache_dir=None``: no cache)."""
+    s = settings or MeshSettings()
+    spacing = spacing or s.flank_size
+    if cache_dir is None:
+        return compute_compliance(pair, i, s, spacing, offsets)
+    path = Path(cache_dir) / f"flank2d-{gear_key(pair, i, s, spacing, offsets)}.npz"
+    if path.exists():
+        try:
+            return FlankCompliance.load(path)
+        except (OSError, ValueError, KeyError) as exc:
+            log.warning("ignoring unreadable cache file %s (%s)", path, exc)
+    fc = compute_compliance(pair, i, s, spacing, offsets)
+    fc.save(path)
+    return fc

@@ -1,0 +1,346 @@
+"""Plane (transverse) triangle meshes with gmsh: a whole gear with graded flanks, and a test disk.
+
+The outline of a gear is built from :func:`gearrom.geometry.profile.tooth_profile`, one spline per
+profile segment (root arc, fillet, involute, tip), so the mesh density is independent of the number
+of profile points and the nodes lie on the generated curves. The loaded ("right", x > 0 in the frame
+of each tooth) flank of the refined teeth gets elements of ``flank_size``; the size grows to
+``tooth_size`` inside those teeth and to ``body_size`` elsewhere.
+
+Tooth numbering: tooth ``j`` is tooth 0 (centred on +y) rotated by ``+j * 2 pi / z``
+(counter-clockwise). The rigid bore circle is returned as ``bore_nodes``.
+"""
+from __future__ import annotations
+
+import contextlib
+import logging
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from gearrom.errors import MeshError
+
+log = logging.getLogger(__name__)
+
+SEGMENT_NAMES = ("root", "fillet", "involute", "tip")
+
+
+@dataclass(frozen=True)
+class MeshSettings:
+    """Mesh density of a gear (lengths in m).
+
+    Parameters
+    ----------
+    flank_size : float
+        Element size on the loaded flank of the refined teeth [m]. It must resolve the Hertz
+        half-width (~0.1 mm at nominal load): the refinement study picks the default.
+    tooth_size : float
+        Element size inside the refined teeth and on their fillets [m].
+    body_size : float
+        Element size in the rim, the hub and the other teeth [m].
+    refined_teeth : int
+        Teeth ``-n..n`` get the fine flank. The influence coefficients load tooth 0 only, so 0
+        suffices for them; the full-contact cross-check needs 1 (every pair in contact refined).
+    near_teeth : int
+        Teeth ``-n..n`` get ``tooth_size`` (elastic neighbours of the loaded teeth).
+    grading : float
+        Distance over which the flank size grows to the tooth size [m].
+    """
+
+    flank_size: float = 0.025e-3
+    tooth_size: float = 0.35e-3
+    body_size: float = 2.5e-3
+    refined_teeth: int = 0
+    near_teeth: int = 3
+    grading: float = 0.8e-3
+
+    def __post_init__(self) -> None:
+        for name in ("flank_size", "tooth_size", "body_size", "grading"):
+            v = getattr(self, name)
+            if not (v > 0 and math.isfinite(v)):
+                raise MeshError(f"fe.mesh.{name} must be a positive length, got {v!r}")
+        if not self.flank_size <= self.tooth_size <= self.body_size:
+            raise MeshError(
+                f"fe.mesh sizes must satisfy flank_size <= tooth_size <= body_size, got "
+                f"{self.flank_size:.3g} / {self.tooth_size:.3g} / {self.body_size:.3g} m"
+            )
+        if self.refined_teeth < 0 or self.near_teeth < max(self.refined_teeth, 2):
+            raise MeshError(
+                f"fe.mesh needs 0 <= refined_teeth <= near_teeth and near_teeth >= 2, got {self.refined_teeth}, {self.near_teeth}"
+            )
+
+    def scaled(self, factor: float) -> "MeshSettings":
+        """All sizes multiplied by ``factor`` (refinement studies)."""
+        return MeshSettings(self.flank_size * factor, self.tooth_size * factor, self.body_size * factor,
+                            self.refined_teeth, self.near_teeth, self.grading)
+
+
+@dataclass(frozen=True, eq=False)
+class Mesh2D:
+    """Linear triangle mesh plus named boundary curves.
+
+    Attributes
+    ----------
+    points : ndarray (n, 2)
+        Node coordinates [m].
+    triangles : ndarray (m, 3)
+        Node indices, counter-clockwise.
+    curves : dict[str, ndarray (k, 2)]
+        Boundary edges (node index pairs) of named curves, e.g. ``"involute_r_0"`` (right flank of tooth 0).
+    bore_nodes : ndarray of int
+        Nodes on the bore (tied to the rigid reference node).
+    """
+
+    points: np.ndarray
+    triangles: np.ndarray
+    curves: dict[str, np.ndarray] = field(default_factory=dict)
+    bore_nodes: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
+
+    def quality(self) -> np.ndarray:
+        """Per-triangle quality 4 sqrt(3) A / sum(l^2) (1 equilateral, 0 degenerate)."""
+        p = self.points[self.triangles]
+        e = np.roll(p, -1, axis=1) - p
+        area = 0.5 * (e[:, 0, 0] * e[:, 1, 1] - e[:, 0, 1] * e[:, 1, 0])
+        return 4 * math.sqrt(3) * area / np.sum(e**2, axis=(1, 2))
+
+    def check(self, min_quality: float = 0.05) -> None:
+        """Raise :class:`MeshError` on inverted or degenerate triangles."""
+        q = self.quality()
+        bad = np.flatnonzero(q < min_quality)
+        if bad.size:
+            k = int(bad[np.argmin(q[bad])])
+            c = self.points[self.triangles[k]].mean(axis=0) * 1e3
+            raise MeshError(
+                f"{bad.size} degenerate or inverted triangles (quality < {min_quality}); worst {q[k]:.3g} "
+                f"at ({c[0]:.3f}, {c[1]:.3f}) mm"
+            )
+
+
+@contextlib.contextmanager
+def gmsh_session(name: str):
+    """Initialise gmsh if needed, yield, and clean up (finalise only what we initialised)."""
+    import gmsh
+
+    own = not gmsh.isInitialized()
+    if own:
+        gmsh.initialize(interruptible=False)
+    gmsh.option.setNumber("General.Terminal", 0)
+    gmsh.option.setNumber("General.Verbosity", 1)
+    import os
+    if os.environ.get("GEARROM_GMSH_VERBOSE"):
+        gmsh.option.setNumber("General.Terminal", 1); gmsh.option.setNumber("General.Verbosity", 5)
+    gmsh.model.add(name)
+    try:
+        yield gmsh
+    finally:
+        gmsh.model.remove()
+        if own:
+            gmsh.finalize()
+
+
+def _extract(gmsh, named: dict[str, list[int]], bore_curves: list[int]) -> Mesh2D:
+    tags, coords, _ = gmsh.model.mesh.getNodes()
+    pts = coords.reshape(-1, 3)[:, :2]
+    index = np.full(int(tags.max()) + 1, -1, dtype=np.int64)
+    index[tags.astype(np.int64)] = np.arange(tags.size)
+    tri = []
+    for etype, _, nodes in zip(*gmsh.model.mesh.getElements(2)):
+        if etype != 2:
+            raise MeshError(f"gmsh produced element type {etype}; only 3-node triangles are supported")
+        tri.append(index[nodes.astype(np.int64)].reshape(-1, 3))
+    tri = np.vstack(tri)
+    used = np.unique(tri)
+    remap = np.full(pts.shape[0], -1, dtype=np.int64)
+    remap[used] = np.arange(used.size)
+    pts, tri = pts[used], remap[tri]
+    p = pts[tri]
+    area = (p[:, 1, 0] - p[:, 0, 0]) * (p[:, 2, 1] - p[:, 0, 1]) - (p[:, 1, 1] - p[:, 0, 1]) * (p[:, 2, 0] - p[:, 0, 0])
+    tri[area < 0] = tri[area < 0][:, ::-1]
+
+    def edges_of(curve_tags: list[int]) -> np.ndarray:
+        out = []
+        for c in curve_tags:
+            for etype, _, nodes in zip(*gmsh.model.mesh.getElements(1, c)):
+                out.append(remap[index[nodes.astype(np.int64)]].reshape(-1, 2))
+        return np.vstack(out) if out else np.zeros((0, 2), int)
+
+    curves = {name: edges_of(c) for name, c in named.items()}
+    bore = np.unique(edges_of(bore_curves))
+    mesh = Mesh2D(points=pts, triangles=tri, curves=curves, bore_nodes=bore)
+    mesh.check()
+    return mesh
+
+
+def _threshold(gmsh, curve_tags: list[int], size_min: float, size_max: float, d_min: float, d_max: float) -> int:
+    f = gmsh.model.mesh.field
+    dist = f.add("Distance")
+    f.setNumbers(dist, "CurvesList", curve_tags)
+    f.setNumber(dist, "Sampling", 400)
+    th = f.add("Threshold")
+    f.setNumber(th, "InField", dist)
+    f.setNumber(th, "SizeMin", size_min)
+    f.setNumber(th, "SizeMax", size_max)
+    f.setNumber(th, "DistMin", d_min)
+    f.setNumber(th, "DistMax", d_max)
+    return th
+
+
+def _finish(gmsh, fields: list[int], algorithm: int = 6) -> None:
+    f = gmsh.model.mesh.field
+    mn = f.add("Min")
+    f.setNumbers(mn, "FieldsList", fields)
+    f.setAsBackgroundMesh(mn)
+    for opt, val in (("Mesh.MeshSizeExtendFromBoundary", 0), ("Mesh.MeshSizeFromPoints", 0),
+                     ("Mesh.MeshSizeFromCurvature", 0), ("Mesh.Algorithm", algorithm)):
+        gmsh.option.setNumber(opt, val)
+    try:
+        gmsh.model.mesh.generate(2)
+    except Exception as exc:  # gmsh raises plain Exception
+        raise MeshError(f"gmsh failed to mesh: {exc}") from None
+
+
+def _clean_profile(prof):
+    """Adapter: order the root + fillet points of the left half by polar angle (descending).
+
+    ``tooth_profile`` sorts the fillet by radius, which scrambles the points that lie on the
+    root circle (equal radii) into a self-intersecting outline. Sorting the left half's root
+    and fillet points by polar angle (from the space middle towards the flank) and dropping
+    near-duplicates gives a simple polygon; the right half is the mirror image.
+    """
+    from gearrom.geometry.profile import ToothProfile
+
+    left = prof.side < 0
+    pts, seg, roll = prof.points[left], prof.segment[left], prof.roll[left]
+    low = seg <= 1
+    ang = np.arctan2(pts[low, 1], pts[low, 0])
+    order = np.argsort(-ang, kind="stable")
+    lp, ls, lr = pts[low][order], seg[low][order], roll[low][order]
+    keep = np.concatenate([[True], np.hypot(*np.diff(lp, axis=0).T) > 1e-7])
+    lp = lp[keep]
+    hp = pts[~low]
+    if np.hypot(*(lp[-1] - hp[0])) < 1e-7:
+        lp = lp[:-1]
+    # resample root + fillet uniformly in arc length; the root arc is where r stays at r_root
+    chain = np.vstack([lp, hp[:1]])
+    arc = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(chain, axis=0).T))])
+    t = np.linspace(0.0, arc[-1], 49)[:-1]
+    lp = np.column_stack([np.interp(t, arc, chain[:, 0]), np.interp(t, arc, chain[:, 1])])
+    r = np.hypot(lp[:, 0], lp[:, 1])
+    on_root = r < r.min() + 1e-3 * (r.max() - r.min() + 1e-12)
+    last_root = int(np.flatnonzero(on_root).max()) if on_root.any() else 0
+    ls = np.where(np.arange(lp.shape[0]) <= max(last_root, 1), 0, 1)
+    lr = np.full(lp.shape[0], np.nan)
+    L_pts = np.vstack([lp, hp])
+    L_seg = np.concatenate([ls, seg[~low]])
+    L_roll = np.concatenate([lr, roll[~low]])
+    R_pts = L_pts[::-1][1:] * np.array([-1.0, 1.0])
+    return ToothProfile(
+        points=np.vstack([L_pts, R_pts]), segment=np.concatenate([L_seg, L_seg[::-1][1:]]),
+        roll=np.concatenate([L_roll, L_roll[::-1][1:]]),
+        side=np.concatenate([np.full(len(L_pts), -1), np.full(len(R_pts), 1)]), form_radius=prof.form_radius,
+    )
+
+
+def gear_mesh(pair, i: int, settings: MeshSettings | None = None) -> Mesh2D:
+    """Mesh the whole transverse section of gear ``i`` of ``pair`` (bore to tip).
+
+    Parameters
+    ----------
+    pair : GearPair
+        Gear pair (helical pairs: the transverse section).
+    i : int
+        0 input gear, 1 output gear.
+    settings : MeshSettings
+        Mesh density.
+
+    Returns
+    -------
+    Mesh2D
+        Curves ``"{segment}_{l|r}_{j}"`` for the teeth ``|j| <= near_teeth``.
+    """
+    from gearrom.geometry.profile import rotate, tooth_profile
+
+    s = settings or MeshSettings()
+    g = pair.gears[i]
+    z = g.z
+    prof = _clean_profile(tooth_profile(pair, i, n_involute=80, n_fillet=40, n_tip=8, n_root=8))
+    with gmsh_session(f"gear{i}") as gmsh:
+        geo = gmsh.model.geo
+        # split each tooth outline into runs of equal (segment, side)
+        keys = list(zip(prof.segment, prof.side))
+        runs, start = [], 0
+        for k in range(1, len(keys)):
+            if keys[k] != keys[start]:
+                runs.append((start, k, keys[start]))
+                start = k
+        runs.append((start, len(keys) - 1, keys[start]))
+        named: dict[str, list[int]] = {}
+        curve_loop: list[int] = []
+        first_point = None
+        prev_point = None
+        for k in range(z):  # clockwise: tooth index j = -k (mod z)
+            j = -k if k <= z // 2 else z - k
+            pts = rotate(prof.points, -k * 2 * math.pi / z)
+            tags = []
+            for n, p in enumerate(pts):
+                if n == 0 and prev_point is not None:
+                    tags.append(prev_point)
+                elif k == z - 1 and n == len(pts) - 1:
+                    tags.append(first_point)
+                else:
+                    tags.append(geo.addPoint(p[0], p[1], 0.0))
+            if first_point is None:
+                first_point = tags[0]
+            prev_point = tags[-1]
+            for a, b, (seg, side) in runs:
+                ids = tags[a:b + 1]
+                if len(ids) < 2:
+                    continue
+                c = geo.addSpline(ids) if len(ids) > 2 else geo.addLine(*ids)
+                curve_loop.append(c)
+                if abs(j) <= s.near_teeth:
+                    named.setdefault(f"{SEGMENT_NAMES[seg]}_{'r' if side > 0 else 'l'}_{j}", []).append(c)
+        outer = geo.addCurveLoop(curve_loop)
+        rb = 0.5 * g.bore_diameter
+        c0 = geo.addPoint(0, 0, 0)
+        q = [geo.addPoint(rb * math.cos(a), rb * math.sin(a), 0) for a in np.arange(4) * math.pi / 2]
+        arcs = [geo.addCircleArc(q[n], c0, q[(n + 1) % 4]) for n in range(4)]
+        hole = geo.addCurveLoop(arcs)
+        geo.addPlaneSurface([outer, hole])
+        geo.synchronize()
+        fine = [c for j in range(-s.refined_teeth, s.refined_teeth + 1) for c in named.get(f"involute_r_{j}", [])]
+        fillets = [c for j in range(-s.refined_teeth, s.refined_teeth + 1)
+                   for n in ("fillet_r", "fillet_l", "root_r", "root_l") for c in named.get(f"{n}_{j}", [])]
+        near = [c for key, cs in named.items() for c in cs]
+        fields = [
+            _threshold(gmsh, fine, s.flank_size, s.tooth_size, 2 * s.flank_size, s.grading),
+            _threshold(gmsh, fillets, 0.5 * s.tooth_size, s.body_size, 0.3e-3, 3e-3),
+            _threshold(gmsh, near, s.tooth_size, s.body_size, 0.2 * pair.mn, 3 * pair.mn),
+        ]
+        _finish(gmsh, fields)
+        mesh = _extract(gmsh, named, arcs)
+    log.info("gear %d mesh: %d nodes, %d triangles", i, mesh.points.shape[0], mesh.triangles.shape[0])
+    return mesh
+
+
+def disk_mesh(radius: float, bore: float, fine_size: float, coarse_size: float, fine_zone: float) -> Mesh2D:
+    """A disk (annulus) with a fine mesh around its top point (0, radius): the Hertz test body.
+
+    The curve ``"contact"`` is the arc within ``fine_zone`` (arc length) of the top point.
+    """
+    with gmsh_session("disk") as gmsh:
+        geo = gmsh.model.geo
+        c0 = geo.addPoint(0, 0, 0)
+        half = fine_zone / radius
+        angles = [math.pi / 2 - half, math.pi / 2 + half, 3 * math.pi / 2]
+        po = [geo.addPoint(radius * math.cos(a), radius * math.sin(a), 0) for a in angles]
+        contact = geo.addCircleArc(po[0], c0, po[1])
+        rest = [geo.addCircleArc(po[1], c0, po[2]), geo.addCircleArc(po[2], c0, po[0])]
+        outer = geo.addCurveLoop([contact, *rest])
+        pi_ = [geo.addPoint(bore * math.cos(a), bore * math.sin(a), 0) for a in np.arange(4) * math.pi / 2]
+        arcs = [geo.addCircleArc(pi_[n], c0, pi_[(n + 1) % 4]) for n in range(4)]
+        geo.addPlaneSurface([outer, geo.addCurveLoop(arcs)])
+        geo.synchronize()
+        fields = [_threshold(gmsh, [contact], fine_size, coarse_size, fine_zone, 0.5 * radius)]
+        _finish(gmsh, fields)
+        return _extract(gmsh, {"contact": [contact]}, arcs)

@@ -1,0 +1,225 @@
+"""Mesh-cycle sweep of the FE LTCA: static TE, mesh stiffness and load sharing over theta x torque.
+
+Typical use::
+
+    from gearrom.config import load_config
+    from gearrom.fe.sweep import stiffness_sweep
+    res = stiffness_sweep(load_config("thesis-spur").pair, torques=[60, 120, 240], n_positions=64)
+    res.to_excitation().save("spur.nc")
+
+The FE part (meshing, factorisation, influence coefficients) is cached on disk per gear, keyed by a
+hash of the gear geometry, material and mesh settings; torque and micro-geometry are not part of
+the key, so changing them re-runs only the contact solves (milliseconds per position).
+"""
+from __future__ import annotations
+
+import json
+import logging
+import os
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from gearrom.fe.compliance import cached_compliance
+from gearrom.fe.ltca import SpurLTCA
+from gearrom.fe.mesh2d import MeshSettings
+
+log = logging.getLogger(__name__)
+
+DEFINITION = ("secant k = F_t / (STE - STE_kinematic) per position; F_t = torque / r_b2; transverse line of action; "
+              "both gears: tooth bending + shear + fillet + rim/body down to a rigid bore + Hertzian contact "
+              "(resolved flank mesh); no shaft/bearing compliance")
+
+
+def default_cache_dir() -> Path:
+    """``$GEARROM_CACHE`` or ``~/.cache/gearrom/fe``."""
+    env = os.environ.get("GEARROM_CACHE")
+    return Path(env) if env else Path.home() / ".cache" / "gearrom" / "fe"
+
+
+@dataclass(frozen=True, eq=False)
+class StiffnessResult:
+    """Quasi-static FE results over one mesh period and several torques (SI units).
+
+    Attributes
+    ----------
+    z1 : int
+    theta : ndarray (n,)
+        Input-gear angle in the mesh period [rad]; pair 0 enters contact at theta = 0.
+    torque : ndarray (m,)
+        Output torque [N m].
+    ste : ndarray (m, n)
+        Loaded static TE along the transverse line of action [m], positive = output lags.
+    ste_kinematic : ndarray (n,)
+        Unloaded TE from micro-geometry and errors alone [m].
+    k_secant, k_tangent : ndarray (m, n)
+        Mesh stiffness [N/m] (secant, see :data:`DEFINITION`; tangent dF/dSTE by a 0.1 % load step).
+    pair_force : ndarray (m, n, p)
+        Force per tooth pair [N]; pair index ``pairs``.
+    pairs : ndarray (p,)
+        Pair indices (-1: the next pair, in contact only prematurely; 0 enters at theta = 0...).
+    max_pressure : ndarray (m, n)
+        Largest contact pressure [Pa].
+    """
+
+    z1: int
+    theta: np.ndarray
+    torque: np.ndarray
+    ste: np.ndarray
+    ste_kinematic: np.ndarray
+    k_secant: np.ndarray
+    k_tangent: np.ndarray
+    pair_force: np.ndarray
+    pairs: np.ndarray
+    max_pressure: np.ndarray
+    definition: str = DEFINITION
+    metadata: dict = field(default_factory=dict)
+
+    @property
+    def load_share(self) -> np.ndarray:
+        """Pair force / total force (m, n, p)."""
+        return self.pair_force / self.pair_force.sum(axis=2, keepdims=True)
+
+    def to_excitation(self):
+        """The hand-off table :class:`gearrom.excitation.table.MeshExcitation` (secant stiffness).
+
+        Its ``load_share`` columns are the pairs 0, 1, ... ; premature contact of the next pair
+        (pair -1) is in k and e but not in a column (see ``metadata["premature_share_max"]``).
+        """
+        from gearrom.excitation.table import MeshExcitation
+
+        keep = self.pairs >= 0
+        meta = dict(self.metadata)
+        meta.setdefault("source", "gearrom.fe LTCA (plane strain influence coefficients)")
+        meta["theta_origin"] = "pair 0 enters contact at the input gear's start of active profile"
+        meta["premature_share_max"] = float(self.load_share[..., ~keep].max()) if (~keep).any() else 0.0
+        return MeshExcitation(z1=self.z1, theta=self.theta, torque=self.torque, k=self.k_secant, e=self.ste,
+                              load_share=self.load_share[..., keep], definition=self.definition,
+                              max_pressure=self.max_pressure, metadata=meta)
+
+    def summary(self, j: int = -1) -> dict:
+        """JSON-ready summary at torque index ``j`` (units in the keys)."""
+        k = self.k_secant[j] * 1e-6
+        e = self.ste[j] * 1e6
+        return {
+            "definition": self.definition,
+            "torque_Nm": float(self.torque[j]),
+            "mean_stiffness_N_per_um": float(k.mean()),
+            "stiffness_ptp_N_per_um": float(np.ptp(k)),
+            "mean_tangent_stiffness_N_per_um": float(self.k_tangent[j].mean() * 1e-6),
+            "ste_mean_um": float(e.mean()),
+            "ste_ptp_um": float(np.ptp(e)),
+            "kinematic_te_ptp_um": float(np.ptp(self.ste_kinematic) * 1e6),
+            "max_contact_pressure_MPa": float(self.max_pressure[j].max() * 1e-6),
+            "mesh_angle_deg": np.degrees(self.theta).tolist(),
+            "stiffness_N_per_um": k.tolist(),
+            "ste_um": e.tolist(),
+            "kinematic_te_um": (self.ste_kinematic * 1e6).tolist(),
+            "load_share": self.load_share[j].tolist(),
+            "load_share_pairs": self.pairs.tolist(),
+            "max_contact_pressure_MPa_per_position": (self.max_pressure[j] * 1e-6).tolist(),
+        }
+
+    # ---------------------------------------------------------------- I/O
+    def save(self, path: str | Path) -> Path:
+        """NPZ with the arrays plus JSON metadata (``definition``, ``metadata``)."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        arrays = {k: getattr(self, k) for k in ("theta", "torque", "ste", "ste_kinematic", "k_secant", "k_tangent",
+                                               "pair_force", "pairs", "max_pressure")}
+        np.savez(path, z1=self.z1, meta=json.dumps({"definition": self.definition, "metadata": self.metadata},
+                                                   default=str), **arrays)
+        return path
+
+    @classmethod
+    def load(cls, path: str | Path) -> "StiffnessResult":
+        with np.load(path) as d:
+            meta = json.loads(str(d["meta"]))
+            return cls(z1=int(d["z1"]), **{k: d[k] for k in ("theta", "torque", "ste", "ste_kinematic", "k_secant",
+                                                              "k_tangent", "pair_force", "pairs", "max_pressure")},
+                       definition=meta["definition"], metadata=meta["metadata"])
+
+    def plot(self):
+        """STE, stiffness, load share and pressure over the mesh period (all torques)."""
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        fig, ax = plt.subplots(4, 1, figsize=(7, 10), sharex=True)
+        deg = np.degrees(self.theta)
+        for j, tq in enumerate(self.torque):
+            lab = f"{tq:.4g} N m"
+            ax[0].plot(deg, self.ste[j] * 1e6, label=lab)
+            ax[1].plot(deg, self.k_secant[j] * 1e-6, label=lab)
+            ax[3].plot(deg, self.max_pressure[j] * 1e-6, label=lab)
+        ax[0].plot(deg, self.ste_kinematic * 1e6, "k--", label="unloaded")
+        for n, p in enumerate(self.pairs):
+            ax[2].plot(deg, self.load_share[-1, :, n], label=f"pair {p}")
+        for a, lab in zip(ax, ("STE [um]", "k secant [N/um]", f"load share @ {self.torque[-1]:.4g} N m",
+                               "max pressure [MPa]")):
+            a.set_ylabel(lab)
+            a.grid(alpha=0.3)
+        ax[0].legend(fontsize=7)
+        ax[2].legend(fontsize=7)
+        ax[3].set_xlabel("input gear angle in mesh period [deg]")
+        ax[0].set_title(self.metadata.get("config", "FE LTCA"), fontsize=9)
+        fig.tight_layout()
+        return fig
+
+
+def build_ltca(pair, settings: MeshSettings | None = None, cache_dir: str | Path | None | bool = True,
+               window: float = 0.4e-3) -> SpurLTCA:
+    """Compliances of both gears (cached) and the LTCA object.
+
+    ``cache_dir=True`` uses :func:`default_cache_dir`, ``None``/``False`` disables the cache.
+    """
+    if cache_dir is True:
+        cache_dir = default_cache_dir()
+    cache = cache_dir or None
+    comps = tuple(cached_compliance(pair, i, settings, cache_dir=cache) for i in range(2))
+    return SpurLTCA(pair, comps, window=window)
+
+
+def mesh_cycle(ltca: SpurLTCA, torques, n_positions: int = 64, mesh_index: int = 0, tangent: bool = True,
+               metadata: dict | None = None) -> StiffnessResult:
+    """Solve ``n_positions`` uniform positions of one mesh period at each output torque [N m]."""
+    torques = np.sort(np.atleast_1d(np.asarray(torques, float)))
+    n = int(n_positions)
+    theta = np.arange(n) * ltca.period / n
+    m, npair = torques.size, ltca.pair_range.size
+    ste = np.zeros((m, n))
+    ks, kt, pmax = np.zeros((m, n)), np.zeros((m, n)), np.zeros((m, n))
+    pf = np.zeros((m, n, npair))
+    kin = np.zeros(n)
+    t0 = time.perf_counter()
+    eps = 1e-3
+    for i, th in enumerate(theta):
+        tq = list(torques) + ([*(torques * (1 + eps))] if tangent else [])
+        res = ltca.solve_many(th, tq, mesh_index)
+        kin[i] = res[0].ste_kinematic
+        for j in range(m):
+            r = res[j]
+            ste[j, i] = r.ste
+            ks[j, i] = r.stiffness
+            pmax[j, i] = r.max_pressure
+            pf[j, i] = r.pair_force
+            kt[j, i] = (eps * r.force / (res[m + j].ste - r.ste)) if tangent else np.nan
+    meta = {"n_positions": n, "solve_time_s": time.perf_counter() - t0, "mesh_index": mesh_index,
+            "compliance_info": [c.info for c in ltca.c]}
+    meta.update(metadata or {})
+    return StiffnessResult(z1=ltca.pair.z[0], theta=theta, torque=torques, ste=ste, ste_kinematic=kin, k_secant=ks,
+                           k_tangent=kt, pair_force=pf, pairs=ltca.pair_range.copy(), max_pressure=pmax, metadata=meta)
+
+
+def stiffness_sweep(pair, torques, n_positions: int = 64, settings: MeshSettings | None = None,
+                    cache_dir: str | Path | None | bool = True, **kw) -> StiffnessResult:
+    """:func:`build_ltca` + :func:`mesh_cycle` (spur pairs; the plane model of the transverse section)."""
+    if pair.is_helical:
+        from gearrom.errors import ModelError
+
+        raise ModelError("stiffness_sweep: helical pairs need the 3D model, which is not available yet")
+    return mesh_cycle(build_ltca(pair, settings, cache_dir), torques, n_positions, **kw)
+
