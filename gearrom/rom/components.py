@@ -7,6 +7,10 @@ A shaft *station* (node) has 6 DOFs in the global frame, shafts parallel to z:
 ``(ux, uy, uz, rx, ry, rz)`` [m, rad]; a *rotor* station (motor, brake) has the single DOF ``rz``.
 Rotations are small except ``rz``, which the model carries as the deviation from the nominal rigid
 rotation (see :mod:`gearrom.rom.model`). Gyroscopic terms couple ``rx, ry`` of spinning stations.
+DOFs per body in the rig model: each gear body (on its ``gear`` station) has lateral ``ux, uy``,
+axial ``uz``, tilting ``rx, ry`` and torsional ``rz`` DOFs, so the helical mesh force acts with its
+axial component and its moments; every other shaft station (sensor end, ball bearing, needle
+bearing, clutch end) has the same 6 DOFs; motor and brake rotors have ``rz`` only (62 DOFs in all).
 
 Element formulations (stated, as the issue asks)
 ------------------------------------------------
