@@ -246,7 +246,9 @@ def run_sweep(config_ref: str | Path, rpms, out_dir: str | Path, *, torque_out: 
     rpms : array_like
         Input speeds [rpm].
     processes : int
-        Worker processes (1 runs in this process).
+        Worker processes (1 runs in this process). Workers are *spawned* (fresh interpreters with
+        single-threaded BLAS), so a script calling this with ``processes > 1`` needs the usual
+        ``if __name__ == "__main__":`` guard.
     linear : bool
         Also evaluate the python-control linear GMF estimate per speed (``linear_gmf_amplitude_um``).
     """
