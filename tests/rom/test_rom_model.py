@@ -177,3 +177,26 @@ def test_overrides_change_the_model():
     assert soft.freqs[0] < base.freqs[0]  # a heavier motor rotor lowers the first torsional mode
     with pytest.raises(ConfigError, match="not a rig/rom parameter"):
         build_rig("thesis-rig", overrides={"rig.motor.mass_kg": 1.0})
+
+
+def test_runout_modulation_sidebands_quasi_static(spur):
+    """Quasi-static, the DTE follows the modulated STE: the sidebands at GMF +- 1 output order have
+    amplitude kappa * ecc * |E1| / 2 (first-order amplitude modulation, mesh.py docstring)."""
+    from gearrom.rom.mesh import centre_distance_sensitivity
+
+    model = build_rig(spur)
+    ecc = 11e-6
+    run = simulate_run(model, 20.0, n_output_revs=1, settle_s=0.05, sample_rate_hz=128 * 32 * 20 / 60,
+                       effects=Effects(runout=(Runout(1, ecc, 0.0),)))
+    d = run.dte["sensor"] - run.dte["sensor"].mean()
+    amp = 2 * np.abs(np.fft.rfft(d)) / d.size  # bin = output order (one output revolution recorded)
+    z2 = spur.pair.z[1]
+    # reference GMF amplitude: the table's STE sampled the same way (aliasing of the table's steps included)
+    th1 = run.angle("in")
+    e_tab = model.excitation.ste(th1, 120.0)
+    e1 = 2 * np.abs(np.fft.rfft(e_tab - e_tab.mean()))[z2] / d.size
+    expect = 0.5 * abs(centre_distance_sensitivity(spur.pair)) * ecc * e1
+    assert amp[1] == pytest.approx(ecc, rel=0.02)  # the once-per-revolution TE itself
+    assert amp[z2] == pytest.approx(e1, rel=0.02)  # GMF: DTE = STE
+    for sb in (z2 - 1, z2 + 1):
+        assert amp[sb] == pytest.approx(expect, rel=0.1)
