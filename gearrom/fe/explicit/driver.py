@@ -166,6 +166,17 @@ def prepare(model: ExplicitModel, safety: float = 0.9, max_candidates: int = 8) 
     d["ncand"] = np.zeros(ns, np.int64)
     d["gap"] = np.zeros(ns)
     d["c_nodes"] = np.unique(np.concatenate([d["slaves"], d["segs"].ravel()])) if nc else np.zeros(0, np.int64)
+    # selective mass scaling of the nodes below the target step (free nodes only)
+    d["added_mass"] = 0.0
+    if model.mass_scaling_dt > 0:
+        w2t = (2.0 / model.mass_scaling_dt) ** 2
+        low = (node_w2 > w2t) & (kind < 0)
+        extra = mass[low] * (node_w2[low] / w2t - 1.0)
+        d["added_mass"] = float(extra.sum())
+        d["n_scaled_nodes"] = int(low.sum())
+        mass[low] += extra
+        node_w2[low] = w2t
+        d["mass"] = mass
     # tied nodes move with their reference: their bound is replaced by the reference's own
     free_w2 = node_w2[kind < 0].max() if np.any(kind < 0) else 0.0
     d["dt_stable"] = 2.0 / math.sqrt(max(free_w2, max(extra_w2)))
@@ -305,6 +316,7 @@ def solve(model: ExplicitModel, t_end: float, sample_period: float | None = None
                 hourglass_viscosity=model.hourglass_viscosity, mass_damping=model.mass_damping,
                 material=dict(E_Pa=model.material.E, nu=model.material.nu, rho_kg_m3=model.material.rho),
                 thickness_m=model.thickness, references=[r.nodes for r in model.references],
+                added_mass_kg=d["added_mass"], total_mass_kg=float(d["mass"].sum()),
                 n_contact_slaves=int(d["slaves"].size), n_contact_segments=int(len(d["segs"])))
     return ExplicitResult(t=out_t[:row], energies=out_E[:row], theta=out_th[:row], omega=out_om[:row],
                           torque_body=out_tq[:row], ref_disp=out_pos[:row], probe_ids=probes,

@@ -1,0 +1,252 @@
+"""A 2D (plane-strain Q4) spur gear pair for the explicit solver, and its transmission error.
+
+Meshes: the quasi-static FE's triangle meshes (:func:`gearrom.fe.mesh2d.gear_mesh`) are split into
+quadrilaterals (each triangle into three quads through its centroid and edge midpoints), so both
+models share the same outline discretization (the explicit flank has twice the node density).
+
+Set-up (gear frames as in :mod:`gearrom.fe.mesh2d`: tooth 0 on +y): the input gear sits at the
+origin with tooth 0 turned onto +x, the output gear at (a_w, 0) with a tooth space facing it, then
+turned counter-clockwise until its flank touches the input gear's leading (+y) flank, minus a small
+clearance (no initial overclosure). The input gear turns counter-clockwise (positive speed) and
+drives; the output turns clockwise and is loaded by a counter-clockwise (resisting) torque.
+
+Transmission error on the line of action, positive when the output lags:
+    TE = rb1 theta1 - rb2 theta2,   theta2 = clockwise rotation of the output gear,
+measured from the rigid first-contact position at t = 0.
+"""
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from gearrom.errors import ConfigError, MeshError
+from gearrom.fe.explicit.driver import solve
+from gearrom.fe.explicit.model import ContactPair, ExplicitModel, Material, RigidReference, boundary_segments
+from gearrom.fe.explicit.result import ExplicitResult
+
+log = logging.getLogger(__name__)
+
+__all__ = ["GearPairSetup", "gear_pair_model", "run_gear_pair", "transmission_error", "triangles_to_quads"]
+
+
+def triangles_to_quads(points: np.ndarray, triangles: np.ndarray):
+    """Split each counter-clockwise triangle into three counter-clockwise quads.
+
+    Returns (nodes, quads, edge_mid) where ``edge_mid`` maps a sorted original edge (a, b) to the
+    index of its midpoint node.
+    """
+    tri = np.asarray(triangles, np.int64)
+    pts = np.asarray(points, float)
+    edges = np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
+    uniq, inv = np.unique(edges, axis=0, return_inverse=True)
+    inv = inv.ravel()
+    n0 = pts.shape[0]
+    mids = 0.5 * (pts[uniq[:, 0]] + pts[uniq[:, 1]])
+    cents = pts[tri].mean(axis=1)
+    nodes = np.vstack([pts, mids, cents])
+    nt = tri.shape[0]
+    m01, m12, m20 = (n0 + inv[:nt], n0 + inv[nt:2 * nt], n0 + inv[2 * nt:])
+    g = n0 + uniq.shape[0] + np.arange(nt)
+    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
+    quads = np.vstack([np.column_stack([a, m01, g, m20]), np.column_stack([b, m12, g, m01]),
+                       np.column_stack([c, m20, g, m12])])
+    edge_mid = {(int(p), int(q)): n0 + k for k, (p, q) in enumerate(uniq)}
+    return nodes, quads, edge_mid
+
+
+def _rotate(points: np.ndarray, angle: float) -> np.ndarray:
+    """Rotate row-vector points counter-clockwise by ``angle`` (rad) about the origin."""
+    c, s = math.cos(angle), math.sin(angle)
+    return points @ np.array([[c, s], [-s, c]])
+
+
+def _outer_loop(nodes: np.ndarray, segs: np.ndarray, bore: set) -> np.ndarray:
+    """Outer boundary segments (bore edges removed)."""
+    keep = np.array([not (int(a) in bore and int(b) in bore) for a, b in segs])
+    return segs[keep]
+
+
+@dataclass(frozen=True)
+class GearPairSetup:
+    """Operating point and model options of an explicit gear-pair run (SI units).
+
+    Parameters
+    ----------
+    rpm_in : float
+        Input speed, rev/min (input gear turns counter-clockwise).
+    torque_out : float
+        Resisting torque on the output gear, N m.
+    ramp_time : float
+        Speed ramp of the input reference from rest (s); 0 starts both gears at speed.
+    torque_ramp_time : float
+        Ramp of the output torque, s.
+    mu : float
+        Coulomb friction coefficient on the flanks.
+    penalty_scale : float
+        Contact penalty factor (see :class:`ContactPair`).
+    clearance : float
+        Initial gap on the line of action, m (no initial overclosure).
+    inertia_in, inertia_out : float
+        Extra lumped inertias on the input / output references, kg m^2 (drivetrain parts).
+    mass_damping : float
+        Mass-proportional damping, 1/s.
+    hourglass_stiffness, hourglass_viscosity : float
+        Flanagan-Belytschko coefficients.
+    mass_scaling_dt : float
+        Selective mass scaling target step, s (0: off); see :class:`ExplicitModel`.
+    """
+
+    rpm_in: float = 1250.0
+    torque_out: float = 120.0
+    ramp_time: float = 0.0
+    torque_ramp_time: float = 0.2e-3
+    mu: float = 0.0
+    penalty_scale: float = 0.3
+    clearance: float = 1e-6
+    inertia_in: float = 0.0
+    inertia_out: float = 0.0
+    mass_damping: float = 0.0
+    hourglass_stiffness: float = 0.05
+    hourglass_viscosity: float = 0.02
+    mass_scaling_dt: float = 0.0
+
+    def __post_init__(self) -> None:
+        if not self.rpm_in > 0:
+            raise ConfigError(f"GearPairSetup.rpm_in must be > 0, got {self.rpm_in}")
+        if not self.clearance >= 0:
+            raise ConfigError(f"GearPairSetup.clearance must be >= 0 m, got {self.clearance}")
+
+
+def _touch_angle(n1, loop1, n2, loop2, center2, hi: float) -> float:
+    """Largest counter-clockwise turn of gear 2 (about ``center2``) without overlap, by bisection."""
+    from matplotlib.path import Path
+
+    def polygon(nodes, segs):
+        nxt = {int(a): int(b) for a, b in segs}
+        start = int(segs[0, 0])
+        order = [start]
+        while True:
+            k = nxt[order[-1]]
+            if k == start:
+                break
+            order.append(k)
+            if len(order) > len(segs):
+                raise MeshError("gear outline is not a single closed loop")
+        return Path(nodes[order])
+
+    p1 = polygon(n1, loop1)
+    b1 = np.unique(loop1)
+    b2 = np.unique(loop2)
+    zone = 4e-3
+    near1 = b1[np.abs(n1[b1, 1]) < zone]
+    near2 = b2[np.abs(n2[b2, 1]) < zone]
+
+    def overlap(angle):
+        q2 = center2 + _rotate(n2 - center2, angle)
+        p2 = polygon(q2, loop2)
+        return bool(p1.contains_points(q2[near2]).any() or p2.contains_points(n1[near1]).any())
+
+    lo = 0.0
+    if overlap(lo):
+        raise MeshError("gears overlap in the start position: check the centre distance and tooth phasing")
+    if not overlap(hi):
+        raise MeshError("gears do not touch within half a pitch: check the centre distance")
+    for _ in range(50):
+        mid = 0.5 * (lo + hi)
+        if overlap(mid):
+            hi = mid
+        else:
+            lo = mid
+    return lo
+
+
+def gear_pair_model(pair, meshes, setup: GearPairSetup, material: Material | None = None) -> tuple[ExplicitModel, dict]:
+    """Build the explicit model of a spur pair from two :class:`gearrom.fe.mesh2d.Mesh2D` meshes.
+
+    Returns the model and a dict with ``rb`` (base radii), ``theta2_touch`` (the reference rotation of
+    gear 2 at first contact, rad), ``omega_in`` (rad/s) and the node ranges of the two gears.
+    """
+    if pair.is_helical:
+        raise ConfigError("gear_pair_model is 2D (spur pairs); helical pairs need the Hex8 model")
+    g1, g2 = pair.gears
+    if material is None:
+        m = g1.material
+        material = Material(E=m.youngs_modulus, nu=m.poisson_ratio, rho=m.density)
+    width = min(g1.face_width, g2.face_width)
+    parts = []
+    for k, mesh in enumerate(meshes):
+        nodes, quads, mid = triangles_to_quads(mesh.points, mesh.triangles)
+        bore = set(int(i) for i in mesh.bore_nodes)
+        bore_q = set(bore)
+        for (a, b), mnode in mid.items():
+            if a in bore and b in bore:
+                bore_q.add(mnode)
+        segs = boundary_segments(quads)
+        outer = _outer_loop(nodes, segs, bore_q)
+        parts.append((nodes, quads, np.array(sorted(bore_q)), outer))
+    (n1, q1, bore1, out1), (n2, q2, bore2, out2) = parts
+    z2 = pair.z[1]
+    n1 = _rotate(n1, -math.pi / 2)                    # tooth 0 from +y to +x
+    center2 = np.array([pair.aw, 0.0])
+    n2 = center2 + _rotate(n2, math.pi / 2 + math.pi / z2)     # a tooth space faces gear 1
+    touch = _touch_angle(n1, out1, n2, out2, center2, math.pi / z2)
+    rb1, rb2 = pair.rb
+    start = touch - setup.clearance / rb2
+    n2 = center2 + _rotate(n2 - center2, start)
+    off = n1.shape[0]
+    nodes = np.vstack([n1, n2])
+    elements = np.vstack([q1, q2 + off])
+    omega1 = setup.rpm_in * 2 * math.pi / 60
+    omega2 = -omega1 * pair.z[0] / pair.z[1]
+    at_speed = setup.ramp_time <= 0
+    v0 = None
+    if at_speed:
+        v0 = np.zeros_like(nodes)
+        v0[:off] = omega1 * np.column_stack([-nodes[:off, 1], nodes[:off, 0]])
+        r2 = nodes[off:] - center2
+        v0[off:] = omega2 * np.column_stack([-r2[:, 1], r2[:, 0]])
+    refs = (
+        RigidReference("bore_1", speed=omega1, ramp_time=max(setup.ramp_time, 0.0), inertia=setup.inertia_in),
+        RigidReference("bore_2", torque=setup.torque_out, torque_ramp_time=setup.torque_ramp_time,
+                       inertia=setup.inertia_out, omega0=omega2 if at_speed else 0.0),
+    )
+    contacts = (
+        ContactPair("flank_1", "outline_2", mu=setup.mu, penalty_scale=setup.penalty_scale),
+        ContactPair("flank_2", "outline_1", mu=setup.mu, penalty_scale=setup.penalty_scale),
+    )
+    model = ExplicitModel(
+        nodes, elements, material, thickness=width,
+        node_sets={"bore_1": bore1, "bore_2": bore2 + off, "flank_1": np.unique(out1),
+                   "flank_2": np.unique(out2) + off},
+        surfaces={"outline_1": out1, "outline_2": out2 + off},
+        references=refs, contacts=contacts, initial_velocity=v0, mass_damping=setup.mass_damping,
+        hourglass_stiffness=setup.hourglass_stiffness, hourglass_viscosity=setup.hourglass_viscosity,
+        mass_scaling_dt=setup.mass_scaling_dt)
+    info = dict(rb=(rb1, rb2), clearance_angle=setup.clearance / rb2, omega_in=omega1, omega_out=omega2,
+                n_gear1=off, flank_spacing_m=float(np.median(np.linalg.norm(n1[out1[:, 1]] - n1[out1[:, 0]], axis=1))))
+    return model, info
+
+
+def transmission_error(result: ExplicitResult, rb: tuple[float, float], clearance_angle: float = 0.0) -> np.ndarray:
+    """TE on the line of action (m), positive when the output lags: rb1 theta1 - rb2 theta2_cw.
+
+    ``clearance_angle`` (rad) is the initial output-gear clearance, removed so that TE = 0 at rigid
+    first contact.
+    """
+    th1 = result.theta[:, 0] - result.theta[0, 0]
+    th2_ccw = result.theta[:, 1] - result.theta[0, 1]
+    return rb[0] * th1 + rb[1] * (th2_ccw - clearance_angle)
+
+
+def run_gear_pair(pair, meshes, setup: GearPairSetup, t_end: float, sample_period: float,
+                  **solve_kw) -> tuple[ExplicitResult, np.ndarray, dict]:
+    """Build and run the pair; return (result, TE history in m, info)."""
+    model, info = gear_pair_model(pair, meshes, setup)
+    res = solve(model, t_end, sample_period, **solve_kw)
+    te = transmission_error(res, info["rb"], info["clearance_angle"])
+    res.meta.update(rpm_in=setup.rpm_in, torque_out_Nm=setup.torque_out, mu=setup.mu,
+                    flank_spacing_m=info["flank_spacing_m"], penalty_scale=setup.penalty_scale)
+    return res, te, info
