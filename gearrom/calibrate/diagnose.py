@@ -111,9 +111,14 @@ def _evidence(ctx: Context, t: Trial, D: list) -> str:
         oth_meas = _line_amp(d[other], m.run, shaft) / UM
         oth_pred = _line_amp(c[other], m.run, shaft) / UM
         txt += (f"; order 1 of the {shaft} shaft: {te:.3g} um in the TE; the other channel "
-                f"({'output' if other == 2 else 'input'}) moves {oth_meas:.3g} um at that order "
-                + ("(real shaft motion: a mesh excitation, not a measurement error)" if name == "eccentricity"
-                   else f"(fitted {oth_pred:.3g} um: an encoder error moves no shaft)"))
+                f"({'output' if other == 2 else 'input'}) moves {oth_meas:.3g} um at that order (this effect "
+                f"predicts {oth_pred:.3g} um; "
+                + ("real shaft motion: a mesh excitation, not a measurement error)" if name == "eccentricity"
+                   else "an encoder error moves no shaft)"))
+        st = t.info.get("split_test")
+        if st:
+            txt += (f"; split test: other channel {100 * st['other_channel_share']:.1f} % of the TE line -> "
+                    f"{ {'real': 'the shaft moves', 'none': 'nothing moves', 'unclear': 'unclear'}[st['verdict']] }")
     elif name == "pitch_error":
         txt += f"; impulsive once-per-rev pattern of the {t.cand.target.split('_')[0]} gear (comb of its shaft orders)"
     elif name in ("tip_relief", "lead_crowning", "helix_slope"):

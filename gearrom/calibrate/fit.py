@@ -154,19 +154,12 @@ def _theta(m: RunModel, shaft: str) -> np.ndarray:
 class OncePerRev(Candidate):
     """eccentricity (through the drivetrain) or encoder_eccentricity (measurement only).
 
-    The TE is the difference of the two channels, so the channels add one piece of information: how
-    a once-per-rev TE component splits between them. An encoder error sits in its own channel only
-    (split fixed at 1 or 0). Gear runout moves the drivetrain; how the motion splits depends on the
-    rig's dynamics, which a model of another rig may get wrong, so the split is a free complex number
-    per run (``u_in = d``, ``u_out = d - c`` for the TE coefficient ``c``). Runout is thus favoured
-    exactly when the other channel moves coherently at that order. Limitation: common-mode motion at
-    the same order from another source (e.g. a once-per-rev motor torque ripple) looks the same.
+    The TE is the difference of the two channels; the channels add one piece of information: how a
+    once-per-rev TE component splits between them. An encoder error sits in its own channel only;
+    gear runout moves the drivetrain, split as the model's dynamics predict (``H`` of the channels).
+    Because another rig may split differently, :func:`gearrom.calibrate.select.split_test` settles
+    close calls between the two on the measured split alone (does the other shaft move at that order?).
     """
-
-    def _te_wave(self, m: RunModel, shaft: str, basis: complex) -> np.ndarray:
-        if self.name == "eccentricity":
-            return m.response(shaft, {1: basis * UM})[0]
-        return (basis * UM * np.exp(1j * _theta(m, shaft))).real
 
     def _cols(self, ctx: Context) -> list:
         shaft = _shaft(self.target)
@@ -176,11 +169,11 @@ class OncePerRev(Candidate):
         for basis in (1.0, 1j):
             per = []
             for m in ctx.models:
-                v = _dt(self._te_wave(m, shaft, basis))
-                z = np.zeros_like(v)
                 if self.name == "eccentricity":
-                    per.append(np.vstack([v, z, -v]))  # TE coefficient c; the split columns follow
+                    per.append(_dt(m.response(shaft, {1: basis * UM})))
                 else:
+                    v = _dt((basis * UM * np.exp(1j * _theta(m, shaft))).real)
+                    z = np.zeros_like(v)
                     per.append(np.vstack([v, v, z]) if shaft == "input" else np.vstack([v, z, -v]))
             if shared:
                 cols.append(per)
@@ -189,35 +182,16 @@ class OncePerRev(Candidate):
                     cols.append([p if i == r else np.zeros_like(p) for i, p in enumerate(per)])
         if not shared:  # reorder to (cos_r, sin_r) pairs
             cols = [c for r in range(nr) for c in (cols[r], cols[nr + r])]
-        if self.name == "eccentricity":  # free split d per run: u_in = d, u_out = d (plus -c above)
-            for r, m in enumerate(ctx.models):
-                for basis in (1.0, 1j):
-                    v = _dt(self._te_wave(m, shaft, basis))
-                    z = np.zeros_like(v)
-                    cols.append([np.vstack([z, v, v]) if i == r else np.zeros((3, v.size))
-                                 for i in range(nr)])
         return cols
-
-    def _n_c(self, ctx: Context) -> int:
-        return 2 if ctx.s.shared_shaft_phase else 2 * len(ctx.models)
-
-    def _bounds(self, ctx: Context, cols: list) -> tuple[np.ndarray, np.ndarray]:
-        b = np.full(len(cols), self.bound)
-        b[self._n_c(ctx):] = 3 * self.bound
-        return -b, b
 
     def fit(self, ctx, R):
         cols = self._cols(ctx)
-        lo, hi = self._bounds(ctx, cols)
-        t = _linear_fit(self, ctx, cols, R, lo, hi, {"n_c": self._n_c(ctx)})
-        t.n_par = self._n_c(ctx)
-        return t
+        return _linear_fit(self, ctx, cols, R, -self.bound, self.bound)
 
     def linear_columns(self, ctx, info) -> tuple[list, np.ndarray, np.ndarray]:
         """Columns (per-run lists) and bounds for a joint linear refit."""
         cols = self._cols(ctx)
-        lo, hi = self._bounds(ctx, cols)
-        return cols, lo, hi
+        return cols, np.full(len(cols), -self.bound), np.full(len(cols), self.bound)
 
     def _amp_phase(self, x):
         pairs = [amp_phase(x[i], x[i + 1]) for i in range(0, len(x), 2)]
@@ -225,7 +199,7 @@ class OncePerRev(Candidate):
         return a, pairs[0][1], pairs
 
     def report(self, x, info):
-        a, ph, pairs = self._amp_phase(x[:info.get("n_c", len(x))])
+        a, ph, pairs = self._amp_phase(x)
         out = {"amplitude_um": a, "phase_deg": ph}
         if len(pairs) > 1:
             out["phase_deg_per_run"] = [p[1] for p in pairs]
@@ -234,7 +208,7 @@ class OncePerRev(Candidate):
     def changes(self, x, info, ctx):
         if self.name != "eccentricity":
             return {}
-        a, ph, _ = self._amp_phase(x[:info.get("n_c", len(x))])
+        a, ph, _ = self._amp_phase(x)
         th = np.arange(N_TABLE) * 2 * math.pi / N_TABLE
         tab = a * UM * np.cos(th + math.radians(ph))
         return {"kinematic_in" if _shaft(self.target) == "input" else "kinematic_out": tab}
@@ -400,13 +374,16 @@ class Micro(Candidate):
         d = dss_of(v, psi0)
         contrib = self._contrib(ctx, waves, v, psi0)
         assert nr == len(contrib)
-        return Trial(self, np.array([v]), contrib, d, 2 if free else 1, {"psi_rad": psi0})
+        info = {"psi_rad": psi0}
+        if self.name == "tip_relief":
+            dca = ctx.micro_nominal.tip_relief_start_diameter[0 if self.target == "input_gear" else 1]
+            info["start_diameter_mm"] = None if dca is None else dca * 1e3  # from the config (not fitted)
+        return Trial(self, np.array([v]), contrib, d, 2 if free else 1, info)
 
     def report(self, x, info):
         out = {"amount_um": float(x[0])}
         if self.name == "tip_relief":
-            i = 0 if self.target == "input_gear" else 1
-            return out
+            out["start_diameter_mm"] = info.get("start_diameter_mm")
         return out
 
     def changes(self, x, info, ctx):

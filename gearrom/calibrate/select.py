@@ -41,6 +41,58 @@ def suggestion(a: tuple[str, str], b: tuple[str, str]) -> str:
            "speed and load dependence"
 
 
+SPLIT_REAL = 0.03  # other-channel motion above this share of the TE line: the shaft really moves
+SPLIT_NONE = 0.01  # below this share: nothing moves, a measurement error
+
+
+def split_test(ctx: Context, R: np.ndarray, shaft: str) -> tuple[str, float]:
+    """Does the *other* shaft move at order 1 of ``shaft``? Decides runout vs encoder eccentricity.
+
+    Returns ``("real", share)``, ``("none", share)`` or ``("unclear", share)``, with ``share`` the
+    largest ratio over the runs of the other channel's line to the TE line at that order (joint line
+    fit on the residual). Model-free: only the measured channels are used.
+    """
+    from gearrom.calibrate.residual import fit_lines
+
+    sizes = [m.run.y.shape[1] for m in ctx.models]
+    blocks = np.split(R, np.cumsum([3 * n for n in sizes])[:-1])
+    share, decisive = 0.0, True
+    for m, b in zip(ctx.models, blocks):
+        y = b.reshape(3, -1) / ctx.w[:, None]
+        line = np.array([[1.0, 0.0]]) if shaft == "input" else np.array([[0.0, 1.0]])
+        c = np.abs(fit_lines(y, m.run.theta_in_rad, m.run.theta_out_rad, line)[:, 0])
+        other = c[2] if shaft == "input" else c[1]
+        noise_line = m.noise_m * math.sqrt(2.0 / y.shape[1])
+        if c[0] < 20 * noise_line:
+            decisive = False
+            continue
+        share = max(share, float((other - 3 * noise_line) / c[0]))
+    if not decisive and share == 0.0:
+        return "unclear", share
+    return ("real" if share > SPLIT_REAL else "none" if share < SPLIT_NONE else "unclear"), share
+
+
+def _apply_split_test(ctx: Context, R: np.ndarray, trials: list[Trial]) -> None:
+    """Reorder a close call between runout and encoder eccentricity of one shaft by :func:`split_test`."""
+    if len(trials) < 2:
+        return
+    a, b = trials[0], trials[1]
+    names = {a.cand.name, b.cand.name}
+    if names != {"eccentricity", "encoder_eccentricity"} or a.cand.target.split("_")[0] != b.cand.target.split("_")[0]:
+        return
+    if b.dss < 0.9 * a.dss:
+        return
+    shaft = "input" if a.cand.target.startswith("input") else "output"
+    verdict, share = split_test(ctx, R, shaft)
+    want = {"real": "eccentricity", "none": "encoder_eccentricity"}.get(verdict)
+    for t in (a, b):
+        t.info["split_test"] = {"verdict": verdict, "other_channel_share": share}
+    if want is not None:
+        if a.cand.name != want:
+            trials[0], trials[1] = b, a
+        trials[0].info["split_decided"] = True
+
+
 def select_effects(ctx: Context, candidates: list, D: list[np.ndarray]) -> tuple[list[Trial], list[dict]]:
     """Forward selection on the residual ``D`` (per run (3, n): measured minus nominal).
 
@@ -75,6 +127,7 @@ def select_effects(ctx: Context, candidates: list, D: list[np.ndarray]) -> tuple
         if not trials:
             break
         trials.sort(key=lambda t: -t.dss)
+        _apply_split_test(ctx, R, trials)
         best = trials[0]
         thresh = max(s.kappa * ctx.noise_var * best.n_par, s.min_fraction * ss, s.min_total_fraction * float(R0 @ R0))
         screened |= {repr(t.cand) for t in trials if t.cand.name == "torsional_mode" and t.dss < 0.25 * thresh}
@@ -89,7 +142,9 @@ def select_effects(ctx: Context, candidates: list, D: list[np.ndarray]) -> tuple
             step["accepted"] = None
             break
         margin = max(2 * s.kappa * ctx.noise_var * best.n_par, s.ambiguity * best.dss)
-        rivals = [t for t in trials[1:] if best.dss - t.dss < margin and t.key != best.key]
+        rivals = [t for t in trials[1:] if abs(best.dss - t.dss) < margin and t.key != best.key
+                  and not (best.info.get("split_decided") and {t.cand.name, best.cand.name} ==
+                           {"eccentricity", "encoder_eccentricity"})]
         best.info["rivals"] = [{"effect": t.cand.name, "target": t.cand.target or None,
                                 "explained_share": t.dss / ss, "suggested_run": suggestion(best.key, t.key)}
                                for t in rivals]
