@@ -118,7 +118,7 @@ class SpurLTCA:
         return 2 * math.pi / self.pair.z[0]
 
     # ---------------------------------------------------------------- gaps
-    def candidates(self, theta: float, mesh_index: int = 0, window: float | None = None):
+    def candidates(self, theta: float, mesh_index: int = 0, window: float | None = None, only=None):
         """Contact candidates per pair at ``theta``.
 
         Each entry: (pair, gear-1 grid indices, gear-2 floor grid indices, gear-2 interpolation weight,
@@ -131,7 +131,7 @@ class SpurLTCA:
         L1_0 = self.L1_start + rb1 * theta
         rot1 = mesh_index * self.period + (L1_0 - 0.5 * pr.dw[0] * math.sin(pr.alpha_wt)) / rb1
         out = []
-        for p in self.pair_range:
+        for p in self.pair_range if only is None else only:
             L1P = L1_0 + p * self.pb
             L2P = self.T - L1P
             if L1P <= 0 or L2P <= 0:
@@ -188,15 +188,18 @@ class SpurLTCA:
         return 0.5 * (C + C.T)
 
     # --------------------------------------------------------------- solve
-    def solve(self, theta: float, torque: float, mesh_index: int = 0) -> PositionResult:
+    def solve(self, theta: float, torque: float, mesh_index: int = 0, only=None) -> PositionResult:
         """Contact solution at input angle ``theta`` [rad] and output torque ``torque`` [N m]."""
-        return self.solve_many(theta, [torque], mesh_index)[0]
+        return self.solve_many(theta, [torque], mesh_index, only)[0]
 
-    def solve_many(self, theta: float, torques, mesh_index: int = 0) -> list[PositionResult]:
-        """Solutions at one position for several output torques [N m] (one compliance matrix)."""
+    def solve_many(self, theta: float, torques, mesh_index: int = 0, only=None) -> list[PositionResult]:
+        """Solutions at one position for several output torques [N m] (one compliance matrix).
+
+        ``only``: restrict the contact to these pair indices (e.g. ``[0]`` for a single pair's stiffness).
+        """
         W = self.window
         for _ in range(4):
-            cands = self.candidates(theta, mesh_index, W)
+            cands = self.candidates(theta, mesh_index, W, only)
             where = f" at theta = {math.degrees(theta):.4f} deg (mesh {mesh_index})"
             if not cands:
                 raise SolverError(f"contact not found{where}: no flank points of both gears lie near the line of action")

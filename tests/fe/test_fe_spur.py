@@ -1,0 +1,117 @@
+"""Spur pair (thesis-spur, b = 18 mm) through the FE LTCA on a coarse-but-real mesh.
+
+References: ISO 6336-1:2006 method B (c' and c_gamma_alpha, about +-20 %; +-25 % for c'), the
+contact ratio eps_alpha of ISO 21771 (positions of single/double contact), Harris (1958) /
+Tavakoli & Houser (1986) for the effect of a long tip relief (loaded STE ripple down at the design
+load, unloaded TE up, edge pressure down), and a second FE formulation (gearrom.fe.fullcontact).
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+
+import numpy as np
+import pytest
+
+from gearrom.config import load_config
+from gearrom.fe import compliance
+from gearrom.fe.iso6336 import mesh_stiffness, single_stiffness
+from gearrom.fe.ltca import SpurLTCA
+from gearrom.fe.mesh2d import MeshSettings
+from gearrom.fe.sweep import StiffnessResult, build_ltca, mesh_cycle
+
+COARSE = MeshSettings(flank_size=0.04e-3, tooth_size=0.45e-3, body_size=3e-3)
+
+
+@pytest.fixture(scope="module")
+def pair():
+    return load_config("thesis-spur").pair
+
+
+@pytest.fixture(scope="module")
+def ltca(pair, tmp_path_factory):
+    return build_ltca(pair, COARSE, cache_dir=tmp_path_factory.mktemp("fecache"))
+
+
+@pytest.fixture(scope="module")
+def cycle(ltca):
+    return mesh_cycle(ltca, [1.0, 120.0], 64)
+
+
+def test_mean_stiffness_vs_iso6336(pair, cycle):
+    ratio = cycle.k_secant[1].mean() / (mesh_stiffness(pair) * pair.face_width)
+    print(f"FE / ISO 6336 c_gamma_alpha = {ratio:.3f}")
+    assert 0.8 <= ratio <= 1.2
+
+
+def test_single_pair_stiffness_vs_iso6336(pair, ltca):
+    # pitch point on the line of action, carried by one pair alone
+    L_c = 0.5 * pair.dw[0] * math.sin(pair.alpha_wt)
+    th = (L_c - pair.roll_start_active[0]) / pair.rb[0]
+    p = int(math.floor(th / ltca.period))
+    res = ltca.solve(th - p * ltca.period, 120.0, only=[p])
+    ratio = res.stiffness / (single_stiffness(pair) * pair.face_width)
+    print(f"FE single pair / ISO 6336 c' = {ratio:.3f}")
+    assert 0.75 <= ratio <= 1.25
+
+
+def test_single_double_alternation_follows_eps_alpha(pair, cycle):
+    """At a light load the pair count switches at (eps_alpha - 1) p_bt and at p_bt (64 positions)."""
+    share = cycle.load_share[0]
+    # index 0 is the switching point itself (the entering pair touches with its tip corner only)
+    single = np.flatnonzero(share[1:].max(axis=1) > 0.999) + 1
+    start = (pair.eps_alpha - 1) * 64
+    assert single.size > 0
+    assert abs(single[0] - start) <= 1.5
+    assert single[-1] == 63
+    assert np.all(np.diff(single) == 1)
+    # STE is larger in single contact than in double contact
+    assert cycle.ste[0, single].mean() > 1.3 * cycle.ste[0, : int(start) - 2].mean()
+
+
+def test_kinematic_te_zero_for_perfect_gears(cycle):
+    assert np.all(np.abs(cycle.ste_kinematic) < 1e-12)
+    assert np.all(cycle.ste > 0)  # output lags under load
+    # force balance: the pair forces add up to torque / r_b2 (r_b2 = 29.4065 mm, ISO 21771)
+    expected = np.broadcast_to(np.array([1.0, 120.0])[:, None] / 29.4065e-3, cycle.ste.shape)
+    np.testing.assert_allclose(cycle.pair_force.sum(axis=2), expected, rtol=1e-4)
+
+
+def test_long_tip_relief_direction_and_no_new_fe_solve(pair, ltca, cycle, monkeypatch):
+    def boom(*a, **k):
+        raise AssertionError("FE solve repeated for a micro-geometry change")
+
+    monkeypatch.setattr(compliance, "compute_compliance", boom)
+    gears = []
+    for i, g in enumerate(pair.gears):
+        d_ca = 2 * math.hypot(pair.rb[i], pair.roll_tip[i] - pair.pb_t)  # long relief from the single-contact end
+        gears.append(dataclasses.replace(g, micro=dataclasses.replace(g.micro, enabled=True, tip_relief=10e-6,
+                                                                       tip_relief_start_diameter=d_ca)))
+    relieved = dataclasses.replace(pair, gears=tuple(gears))
+    t0 = time.perf_counter()
+    ltca2 = SpurLTCA(relieved, ltca.c)  # same compliances: the FE part is independent of micro-geometry
+    res = mesh_cycle(ltca2, [120.0], 64)
+    assert time.perf_counter() - t0 < 2.0
+    assert np.ptp(res.ste[0]) < 0.8 * np.ptp(cycle.ste[1])
+    assert 1e-6 < np.ptp(res.ste_kinematic) <= 10e-6 + 1e-9
+    assert res.max_pressure[0].max() < 0.9 * cycle.max_pressure[1].max()  # tip-edge contact relieved
+
+
+def test_cache_hit_needs_no_fe(pair, ltca, monkeypatch, tmp_path):
+    monkeypatch.setattr(compliance, "compute_compliance", lambda *a, **k: (_ for _ in ()).throw(AssertionError()))
+    cache = tmp_path / "c"
+    for i in range(2):
+        ltca.c[i].save(cache / f"flank2d-{compliance.gear_key(pair, i, COARSE, COARSE.flank_size, 2)}.npz")
+    again = build_ltca(pair, COARSE, cache_dir=cache)
+    np.testing.assert_array_equal(again.c[1].G, ltca.c[1].G)
+
+
+def test_result_roundtrip_and_excitation(cycle, tmp_path):
+    back = StiffnessResult.load(cycle.save(tmp_path / "r.npz"))
+    np.testing.assert_array_equal(back.ste, cycle.ste)
+    ex = back.to_excitation()
+    assert ex.mean_stiffness(120.0) == pytest.approx(cycle.k_secant[1].mean(), rel=1e-9)
+    assert ex.load_share.shape == (2, 64, cycle.pairs.size - 1)
+    fig = cycle.plot()
+    assert len(fig.axes) == 4
