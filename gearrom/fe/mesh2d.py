@@ -344,3 +344,47 @@ def disk_mesh(radius: float, bore: float, fine_size: float, coarse_size: float, 
         fields = [_threshold(gmsh, [contact], fine_size, coarse_size, fine_zone, 0.5 * radius)]
         _finish(gmsh, fields)
         return _extract(gmsh, {"contact": [contact]}, arcs)
+
+
+FE_SECTION_KEYS = {
+    "flank_size_mm": "element size on the loaded flank [mm]",
+    "tooth_size_mm": "element size in the refined teeth [mm]",
+    "body_size_mm": "element size in the body [mm]",
+    "refined_teeth": "teeth -n..n with the fine flank [-]",
+    "near_teeth": "teeth -n..n with the tooth size [-]",
+    "positions": "mesh positions per mesh cycle [-]",
+    "torques_Nm": "output torques of the torque map [N m]",
+}
+
+
+def settings_from_section(section: dict, source: str = "config") -> tuple[MeshSettings, dict]:
+    """Mesh settings from a config's ``[fe]`` section; returns (settings, other keys).
+
+    Raises
+    ------
+    ConfigError
+        Unknown key or a value of the wrong type.
+    """
+    from gearrom.errors import ConfigError
+
+    d = MeshSettings()
+    kw = {}
+    for key, value in section.items():
+        if key not in FE_SECTION_KEYS:
+            raise ConfigError(f"{source}: unknown key 'fe.{key}' (known: {', '.join(FE_SECTION_KEYS)})")
+        if key.endswith("_mm"):
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise ConfigError(f"{source}: fe.{key} must be a number, got {value!r}")
+            kw[key[:-3]] = float(value) * 1e-3
+        elif key in ("refined_teeth", "near_teeth"):
+            if not isinstance(value, int) or isinstance(value, bool):
+                raise ConfigError(f"{source}: fe.{key} must be an integer, got {value!r}")
+            kw[key] = value
+    base = {k: getattr(d, k) for k in ("flank_size", "tooth_size", "body_size", "refined_teeth", "near_teeth", "grading")}
+    base.update(kw)
+    try:
+        settings = MeshSettings(**base)
+    except MeshError as exc:
+        raise ConfigError(f"{source}: {exc}") from None
+    rest = {k: v for k, v in section.items() if k in ("positions", "torques_Nm")}
+    return settings, rest
