@@ -4,8 +4,8 @@ For each measured run the simulator is run at the run's *measured* speed and its
 
 1. nominal, to get the model's own GMF lines, from which the mesh phase psi is estimated
    (:func:`~gearrom.calibrate.residual.estimate_mesh_phase`), then nominal again at psi;
-2. once per shaft with a small multisine kinematic error (orders 1..Q of that shaft, Schroeder
-   phases, 0.1 um each). The difference to the nominal run, regressed on the injected orders,
+2. twice per shaft with a small multisine kinematic error (orders 1..Q of that shaft in two blocks,
+   Schroeder phases, 0.1 um each). The difference to the nominal run, regressed on the injected orders,
    gives the drivetrain's response ``H[q]`` (complex, for te, u_in, u_out) to a unit kinematic
    error at shaft order q. It holds every speed-dependent dynamic effect of the model (mode
    amplification, which shaft moves), and turns kinematic effects (runout, pitch errors) and
@@ -145,24 +145,37 @@ def max_order(run: RunData, shaft: str) -> int:
 
 
 def _sensitivity(sim: Simulator, rm: RunModel, hnom, shaft: str) -> tuple[np.ndarray, np.ndarray]:
+    """Response to unit kinematic errors at orders 1..Q of ``shaft``, from two multisine simulations.
+
+    The low orders (below half the tooth count) go in one multisine and the rest in another: two
+    injected orders that differ by a multiple of the mesh order would mix through the mesh
+    stiffness variation (parametric excitation) and bias each other's estimate, most of all near
+    the mesh resonance; within the low block no difference reaches the mesh order.
+    """
     run = rm.run
     Q = max_order(run, shaft)
-    orders = np.arange(1, Q + 1)
-    ph = _schroeder(Q)
-    tab = multisine_table(orders, INJECT_UM * 1e-6, ph)
-    ch = ModelChanges(kinematic_in=tab if shaft == "input" else None,
-                      kinematic_out=tab if shaft == "output" else None, mesh_phase_rad=rm.psi)
-    hx = sim.simulate(rm.cond, ch)
-    if hx.t_s.size != hnom.t_s.size:
-        raise CalibrationError(f"simulator {sim.name} returned different grids for the same run")
+    z = run.mesh.z1 if shaft == "input" else run.mesh.z2
+    split = max(1, min(Q, (z - 1) // 2))
+    blocks = [np.arange(1, split + 1)] + ([np.arange(split + 1, Q + 1)] if Q > split else [])
     _, y0 = sim_signals(hnom, run.mesh)
-    _, y1 = sim_signals(hx, run.mesh)
-    d = y1 - y0
-    d -= d.mean(axis=1, keepdims=True)
-    lines = np.column_stack([orders, np.zeros(Q)]) if shaft == "input" else np.column_stack([np.zeros(Q), orders])
-    f_max = Q * run.rpm_in / 60.0 * (1.0 if shaft == "input" else run.mesh.ratio)
     fs_sim = 1.0 / float(np.median(np.diff(hnom.t_s)))
-    k = max(1, int(fs_sim // (5 * f_max)))  # rows thinned: the response lives below f_max
-    c = fit_lines(d[:, ::k], hnom.theta_in_rad[::k], hnom.theta_out_rad[::k], lines)
-    H = c / (INJECT_UM * 1e-6 * np.exp(1j * ph))[None, :]
-    return orders, H
+    f_shaft = run.rpm_in / 60.0 * (1.0 if shaft == "input" else run.mesh.ratio)
+    orders_all, H_all = [], []
+    for orders in blocks:
+        ph = _schroeder(orders.size)
+        tab = multisine_table(orders, INJECT_UM * 1e-6, ph)
+        ch = ModelChanges(kinematic_in=tab if shaft == "input" else None,
+                          kinematic_out=tab if shaft == "output" else None, mesh_phase_rad=rm.psi)
+        hx = sim.simulate(rm.cond, ch)
+        if hx.t_s.size != hnom.t_s.size:
+            raise CalibrationError(f"simulator {sim.name} returned different grids for the same run")
+        _, y1 = sim_signals(hx, run.mesh)
+        d = y1 - y0
+        d -= d.mean(axis=1, keepdims=True)
+        zeros = np.zeros(orders.size)
+        lines = np.column_stack([orders, zeros]) if shaft == "input" else np.column_stack([zeros, orders])
+        k = max(1, int(fs_sim // (5 * orders[-1] * f_shaft)))  # rows thinned: the response lives below
+        c = fit_lines(d[:, ::k], hnom.theta_in_rad[::k], hnom.theta_out_rad[::k], lines)
+        orders_all.append(orders)
+        H_all.append(c / (INJECT_UM * 1e-6 * np.exp(1j * ph))[None, :])
+    return np.concatenate(orders_all), np.concatenate(H_all, axis=1)

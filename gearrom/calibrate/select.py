@@ -59,8 +59,8 @@ def split_test(ctx: Context, R: np.ndarray, shaft: str) -> tuple[str, float]:
     share, decisive = 0.0, True
     for m, b in zip(ctx.models, blocks):
         y = b.reshape(3, -1) / ctx.w[:, None]
-        line = np.array([[1.0, 0.0]]) if shaft == "input" else np.array([[0.0, 1.0]])
-        c = np.abs(fit_lines(y, m.run.theta_in_rad, m.run.theta_out_rad, line)[:, 0])
+        lines = np.array([[1.0, 0.0], [0.0, 1.0]])  # both shafts' order 1 jointly (0.22 orders apart)
+        c = np.abs(fit_lines(y, m.run.theta_in_rad, m.run.theta_out_rad, lines)[:, 0 if shaft == "input" else 1])
         other = c[2] if shaft == "input" else c[1]
         noise_line = m.noise_m * math.sqrt(2.0 / y.shape[1])
         if c[0] < 20 * noise_line:
