@@ -97,6 +97,9 @@ class GearPairSetup:
         Flanagan-Belytschko coefficients.
     mass_scaling_dt : float
         Selective mass scaling target step, s (0: off); see :class:`ExplicitModel`.
+    flanks : str
+        "drive": contact only on the driving flank side of every tooth (the pair of the seed has
+        zero design backlash, so with "both" the coast flanks touch too and the pair jams).
     """
 
     rpm_in: float = 1250.0
@@ -112,10 +115,13 @@ class GearPairSetup:
     hourglass_stiffness: float = 0.05
     hourglass_viscosity: float = 0.02
     mass_scaling_dt: float = 0.0
+    flanks: str = "drive"
 
     def __post_init__(self) -> None:
         if not self.rpm_in > 0:
             raise ConfigError(f"GearPairSetup.rpm_in must be > 0, got {self.rpm_in}")
+        if self.flanks not in ("drive", "both"):
+            raise ConfigError(f"GearPairSetup.flanks must be 'drive' or 'both', got {self.flanks!r}")
         if not self.clearance >= 0:
             raise ConfigError(f"GearPairSetup.clearance must be >= 0 m, got {self.clearance}")
 
@@ -164,7 +170,11 @@ def _touch_angle(n1, loop1, n2, loop2, center2, hi: float) -> float:
 
 
 def gear_pair_model(pair, meshes, setup: GearPairSetup, material: Material | None = None) -> tuple[ExplicitModel, dict]:
-    """Build the explicit model of a spur pair from two :class:`gearrom.fe.mesh2d.Mesh2D` meshes.
+    """Build the explicit model of a spur pair from two gear meshes.
+
+    ``meshes`` holds, per gear, either a quasi-static :class:`gearrom.fe.mesh2d.Mesh2D` (triangles,
+    split into quads here) or a tuple (nodes, quads, bore_ids) such as
+    :func:`gearrom.fe.explicit.gearmesh.gear_quad_mesh` returns, in the gear frame (tooth 0 on +y).
 
     Returns the model and a dict with ``rb`` (base radii), ``theta2_touch`` (the reference rotation of
     gear 2 at first contact, rad), ``omega_in`` (rad/s) and the node ranges of the two gears.
@@ -178,16 +188,26 @@ def gear_pair_model(pair, meshes, setup: GearPairSetup, material: Material | Non
     width = min(g1.face_width, g2.face_width)
     parts = []
     for k, mesh in enumerate(meshes):
-        nodes, quads, mid = triangles_to_quads(mesh.points, mesh.triangles)
-        bore = set(int(i) for i in mesh.bore_nodes)
-        bore_q = set(bore)
-        for (a, b), mnode in mid.items():
-            if a in bore and b in bore:
-                bore_q.add(mnode)
+        if hasattr(mesh, "triangles"):          # a quasi-static Mesh2D: split into quads
+            nodes, quads, mid = triangles_to_quads(mesh.points, mesh.triangles)
+            bore = set(int(i) for i in mesh.bore_nodes)
+            bore_q = set(bore)
+            for (a, b), mnode in mid.items():
+                if a in bore and b in bore:
+                    bore_q.add(mnode)
+        else:                                    # (nodes, quads, bore) e.g. from gear_quad_mesh
+            nodes, quads, bore = (np.asarray(x) for x in mesh)
+            bore_q = set(int(i) for i in bore)
         segs = boundary_segments(quads)
         outer = _outer_loop(nodes, segs, bore_q)
-        parts.append((nodes, quads, np.array(sorted(bore_q)), outer))
-    (n1, q1, bore1, out1), (n2, q2, bore2, out2) = parts
+        contact = outer
+        if setup.flanks == "drive":
+            # drive side = left half of every tooth (x < 0 for tooth 0 on +y) for both gears
+            mid_xy = nodes[outer].mean(axis=1)
+            phi = np.mod(np.arctan2(mid_xy[:, 1], mid_xy[:, 0]) - math.pi / 2, 2 * math.pi / pair.z[k])
+            contact = outer[phi < math.pi / pair.z[k]]
+        parts.append((nodes, quads, np.array(sorted(bore_q)), outer, contact))
+    (n1, q1, bore1, out1, c1), (n2, q2, bore2, out2, c2) = parts
     z2 = pair.z[1]
     n1 = _rotate(n1, -math.pi / 2)                    # tooth 0 from +y to +x
     center2 = np.array([pair.aw, 0.0])
@@ -219,9 +239,9 @@ def gear_pair_model(pair, meshes, setup: GearPairSetup, material: Material | Non
     )
     model = ExplicitModel(
         nodes, elements, material, thickness=width,
-        node_sets={"bore_1": bore1, "bore_2": bore2 + off, "flank_1": np.unique(out1),
-                   "flank_2": np.unique(out2) + off},
-        surfaces={"outline_1": out1, "outline_2": out2 + off},
+        node_sets={"bore_1": bore1, "bore_2": bore2 + off, "flank_1": np.unique(c1),
+                   "flank_2": np.unique(c2) + off},
+        surfaces={"outline_1": c1, "outline_2": c2 + off},
         references=refs, contacts=contacts, initial_velocity=v0, mass_damping=setup.mass_damping,
         hourglass_stiffness=setup.hourglass_stiffness, hourglass_viscosity=setup.hourglass_viscosity,
         mass_scaling_dt=setup.mass_scaling_dt)

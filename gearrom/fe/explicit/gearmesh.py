@@ -1,0 +1,126 @@
+"""All-quadrilateral (Q4) mesh of a whole spur gear for the explicit solver (gmsh, full-quad blossom).
+
+The outline is the rack-generated tooth profile of :mod:`gearrom.geometry.profile` (cleaned as in
+:mod:`gearrom.fe.mesh2d`), repeated for all teeth and resampled at the boundary element size, with
+the bore circle. The size is ``outline_size`` on the outline and grows to ``body_size`` at
+``grading`` (m) from it. Frame: gear centre at the origin, tooth 0 on +y.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from gearrom.errors import MeshError
+
+
+def _closed_outline(pair, i: int) -> np.ndarray:
+    from gearrom.fe.mesh2d import _clean_profile   # same cleaning as the quasi-static meshes
+    from gearrom.geometry.profile import rotate, tooth_profile
+
+    prof = _clean_profile(tooth_profile(pair, i, n_involute=80, n_fillet=40, n_tip=8, n_root=8))
+    z = pair.gears[i].z
+    parts = [rotate(prof.points, -k * 2 * math.pi / z)[:-1] for k in range(z)]
+    return np.vstack(parts)
+
+
+def _resample_closed(poly: np.ndarray, h: float) -> np.ndarray:
+    closed = np.vstack([poly, poly[:1]])
+    seg = np.hypot(*np.diff(closed, axis=0).T)
+    arc = np.concatenate([[0.0], np.cumsum(seg)])
+    n = max(8, int(round(arc[-1] / h)))
+    t = np.linspace(0.0, arc[-1], n, endpoint=False)
+    return np.column_stack([np.interp(t, arc, closed[:, 0]), np.interp(t, arc, closed[:, 1])])
+
+
+_ATTEMPTS = ((8, 1, 10), (8, 1, 0), (6, 1, 10), (5, 1, 10), (8, 0, 10))   # (algorithm, blossom, smoothing)
+
+
+def gear_quad_mesh(pair, i: int, outline_size: float, body_size: float | None = None,
+                   grading: float = 2e-3):
+    """Q4 mesh of gear ``i`` of ``pair``.
+
+    Returns
+    -------
+    nodes : ndarray (n, 2), m
+    quads : ndarray (m, 4), counter-clockwise
+    bore : ndarray of int, nodes on the bore circle
+    """
+    from gearrom.fe.explicit.geometry import element_geometry
+
+    body_size = body_size or outline_size
+    if not 0 < outline_size <= body_size:
+        raise MeshError(f"gear_quad_mesh needs 0 < outline_size <= body_size, got {outline_size}, {body_size}")
+    outline = _resample_closed(_closed_outline(pair, i), 2 * outline_size)   # halved below
+    last = None
+    for algo, blossom, smooth in _ATTEMPTS:   # gmsh quads are occasionally degenerate at the root
+        mesh = _mesh(pair, i, outline, outline_size, body_size, grading, algo, blossom, smooth)
+        try:
+            element_geometry(mesh[0], mesh[1])
+            return mesh
+        except MeshError as exc:
+            last = exc
+    raise MeshError(f"gear {i}: no valid quad mesh at outline_size {outline_size * 1e3:.3f} mm ({last})")
+
+
+def _mesh(pair, i, outline, outline_size, body_size, grading, algo, blossom, smooth):
+    from gearrom.fe.mesh2d import gmsh_session
+
+    rb = 0.5 * pair.gears[i].bore_diameter
+    with gmsh_session(f"quadgear{i}") as gmsh:
+        geo = gmsh.model.geo
+        pts = [geo.addPoint(x, y, 0.0) for x, y in outline]
+        lines = [geo.addLine(pts[k], pts[(k + 1) % len(pts)]) for k in range(len(pts))]
+        outer = geo.addCurveLoop(lines)
+        c0 = geo.addPoint(0, 0, 0)
+        q = [geo.addPoint(rb * math.cos(a), rb * math.sin(a), 0) for a in np.arange(4) * math.pi / 2]
+        arcs = [geo.addCircleArc(q[n], c0, q[(n + 1) % 4]) for n in range(4)]
+        hole = geo.addCurveLoop(arcs)
+        geo.addPlaneSurface([outer, hole])
+        geo.synchronize()
+        f = gmsh.model.mesh.field
+        dist = f.add("Distance")
+        f.setNumbers(dist, "CurvesList", lines)
+        f.setNumber(dist, "Sampling", 4)
+        thr = f.add("Threshold")
+        f.setNumber(thr, "InField", dist)
+        f.setNumber(thr, "SizeMin", 2 * outline_size)      # halved by the quad subdivision below
+        f.setNumber(thr, "SizeMax", 2 * body_size)
+        f.setNumber(thr, "DistMin", 0.5 * outline_size)
+        f.setNumber(thr, "DistMax", grading)
+        f.setAsBackgroundMesh(thr)
+        for opt, val in (("Mesh.MeshSizeExtendFromBoundary", 0), ("Mesh.MeshSizeFromPoints", 0),
+                         ("Mesh.MeshSizeFromCurvature", 0), ("Mesh.Algorithm", algo),
+                         ("Mesh.RecombineAll", 1), ("Mesh.RecombinationAlgorithm", blossom),
+                         ("Mesh.SubdivisionAlgorithm", 1), ("Mesh.Smoothing", smooth)):
+            gmsh.option.setNumber(opt, val)
+        for ln in lines:   # keep the outline resolution: one element per resampled segment (halved)
+            gmsh.model.mesh.setTransfiniteCurve(ln, 2)
+        try:
+            gmsh.model.mesh.generate(2)
+        except Exception as exc:  # gmsh raises plain Exception
+            raise MeshError(f"gmsh failed to mesh gear {i}: {exc}") from None
+        tags, coords, _ = gmsh.model.mesh.getNodes()
+        xy = coords.reshape(-1, 3)[:, :2]
+        index = np.full(int(tags.max()) + 1, -1, np.int64)
+        index[tags.astype(np.int64)] = np.arange(tags.size)
+        quads = []
+        for etype, _, nodes in zip(*gmsh.model.mesh.getElements(2)):
+            if etype != 3:
+                raise MeshError(f"gmsh produced element type {etype} for gear {i}; expected 4-node quads")
+            quads.append(index[nodes.astype(np.int64)].reshape(-1, 4))
+        quads = np.vstack(quads)
+        bore = []
+        for c in arcs:
+            for _, _, nodes in zip(*gmsh.model.mesh.getElements(1, c)):
+                bore.append(index[nodes.astype(np.int64)])
+        bore = np.unique(np.concatenate(bore))
+    used = np.unique(quads)
+    remap = np.full(xy.shape[0], -1, np.int64)
+    remap[used] = np.arange(used.size)
+    xy, quads, bore = xy[used], remap[quads], remap[bore]
+    p = xy[quads]
+    area = 0.5 * np.sum(p[:, :, 0] * np.roll(p[:, :, 1], -1, axis=1) - np.roll(p[:, :, 0], -1, axis=1) * p[:, :, 1], axis=1)
+    if np.median(area) < 0:      # gmsh orients all elements alike: flip all, never one by one
+        quads = quads[:, ::-1]
+    return xy, quads, bore[bore >= 0]
