@@ -221,11 +221,26 @@ def default_simulator(config, prefer: str = "auto") -> Simulator:
         Gear configuration name or file.
     prefer : {"auto", "rom", "torsional"}
         ``"rom"``: the exudyn ROM (:class:`RomSimulator`); ``"torsional"``: the small torsional rig
-        model; ``"auto"``: the torsional rig model (fast, and it can re-tune rig parameters for the
-        ``torsional_mode`` candidates, which the ROM cannot yet).
+        model; ``"auto"``: the ROM when the configuration describes a rig (a ``[rig]`` section, as
+        ``thesis-rig``), since it is then the user's own drivetrain; otherwise the torsional rig model
+        (fast, with assumed rig values, and able to re-tune rig parameters for ``torsional_mode``,
+        which the ROM adapter cannot yet).
     """
     from gearrom.calibrate.rig import TorsionalRig
 
+    if prefer == "auto":
+        from gearrom.config import load_config
+
+        try:
+            has_rig = bool(load_config(config, check=False).section("rig"))
+        except Exception:  # noqa: BLE001  (a bad config is reported by the simulator that loads it)
+            has_rig = False
+        if has_rig:
+            try:
+                return RomSimulator(config)
+            except ImportError:
+                log.warning("config %s describes a rig but the exudyn ROM is not importable; using the "
+                            "torsional rig model", config)
     if prefer == "rom":
         try:
             return RomSimulator(config)

@@ -19,7 +19,8 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                         help="write diagnosis.json, summary.txt and before/after plots (run_<i>.png) into DIR")
     parser.add_argument("--save", metavar="NPZ", type=Path, help="save the full result (traces + JSON)")
     parser.add_argument("--simulator", choices=("auto", "rom", "torsional"), default="auto",
-                        help="dynamic model: exudyn ROM, the torsional rig model, or auto (ROM when it has the hooks)")
+                        help="dynamic model: the exudyn ROM, the torsional rig model, or auto (the ROM when the "
+                             "config describes a rig, as thesis-rig; else the torsional rig model)")
     parser.add_argument("--torque-out-Nm", type=float, help="load torque for files that do not state torque_out_Nm")
     parser.add_argument("--max-effects", type=int, default=3, help="most effects added (default 3)")
     parser.add_argument("--effects", help="comma-separated subset of the library to consider "
