@@ -28,6 +28,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.interpolate import CubicSpline
 from scipy.optimize import lsq_linear, minimize, minimize_scalar
 
 from gearrom.calibrate.effects import LIBRARY, amp_phase, load_share_window
@@ -286,6 +287,17 @@ class Micro(Candidate):
     def _lo(self):
         return -self.bound if self.name == "helix_slope" else 0.0
 
+    def _delta_ste(self, ctx: Context, torque: float, value: float) -> np.ndarray:
+        """STE change of the GMF harmonics at ``value`` um: the micro-geometry model on a grid of 33 values
+        over the plausible range, cubic interpolation in between (the lines vary smoothly with size)."""
+        key = ("delta", self.name, self.target, round(torque, 6))
+        if key not in ctx._ste:
+            grid = np.linspace(self._lo(), self.bound, 33)
+            base = ctx.ste_lines(torque, ctx.micro_nominal)
+            vals = np.array([ctx.ste_lines(torque, self._mods(ctx, v)) - base for v in grid])
+            ctx._ste[key] = CubicSpline(grid, vals, axis=0)
+        return ctx._ste[key](value)
+
     def _waves(self, ctx: Context):
         """Per run: e^{i h z1 theta_in} (h = 1..N_MESH_HARMONICS) on the run's grid, and H(h z1) (3, N) or 0."""
         out = []
@@ -304,8 +316,7 @@ class Micro(Candidate):
         through H, at mesh phase psi, minus the nominal lines at the run's own mesh phase."""
         z1 = m.run.mesh.z1
         hs = np.arange(1, N_MESH_HARMONICS + 1)
-        d = ctx.ste_lines(m.run.torque_out_Nm, self._mods(ctx, value)) - ctx.ste_lines(m.run.torque_out_Nm,
-                                                                                      ctx.micro_nominal)
+        d = self._delta_ste(ctx, m.run.torque_out_Nm, value)
         nom = np.zeros((3, N_MESH_HARMONICS), complex)
         k = min(N_MESH_HARMONICS, m.gmf_model3.shape[1])
         nom[:, :k] = m.gmf_model3[:, :k]

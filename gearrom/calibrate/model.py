@@ -126,7 +126,9 @@ def realigned(rm: RunModel, hist) -> tuple[np.ndarray, float]:
     """A re-tuned model run (simulated at mesh phase 0, no shaft-order effects) mapped onto the run
     with its mesh phase re-estimated from *its own* GMF lines, as for the nominal model."""
     _, ys = sim_signals(hist, rm.run.mesh)
-    gm = fit_lines(ys[0] - ys[0].mean(), hist.theta_in_rad, hist.theta_out_rad, rm.lines)
+    fs_sim = 1.0 / float(np.median(np.diff(hist.t_s)))
+    k = max(1, int(fs_sim // (5 * np.max(rm.lines[:, 0]) * rm.run.rpm_in / 60.0)))
+    gm = fit_lines(ys[0, ::k] - ys[0].mean(), hist.theta_in_rad[::k], hist.theta_out_rad[::k], rm.lines)
     n = rm.run.y.shape[1]
     psi, ok = estimate_mesh_phase(rm.gmf_meas, gm, rm.run.mesh.z1, rm.noise_m / 1e-6 / math.sqrt(max(n, 1) / 2))
     if not ok:
