@@ -7,10 +7,8 @@ of every run from its parameters, through the run's model sensitivities (:mod:`.
 * ``pitch_error``: one displaced tooth, the load-share window of the nominal mesh as the kinematic
   error pattern, all shaft orders through ``H(q)``; the tooth index is searched;
 * ``encoder_eccentricity``: ``a cos(theta + phi)`` in te and in its own channel only;
-* ``tip_relief`` / ``lead_crowning`` / ``helix_slope``: the STE change at the GMF harmonics from the
-  micro-geometry model, through ``H(h z1)``; the mesh phase is the estimated one, or free (one
-  value shared by the runs) when the nominal model had nothing to align;
-* ``torsional_mode``: re-simulation with one rig parameter scaled.
+* ``tip_relief`` / ``lead_crowning`` / ``helix_slope`` and ``torsional_mode``: see
+  :mod:`gearrom.calibrate.fit_mesh`.
 
 The stacked, weighted residual of all runs (te weight 1, channels ``channel_weight``) is fitted
 by each candidate alone (bounded least squares: :func:`scipy.optimize.lsq_linear` for the linear
@@ -28,14 +26,12 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.interpolate import CubicSpline
-from scipy.optimize import lsq_linear, minimize, minimize_scalar
+from scipy.optimize import lsq_linear
 
 from gearrom.calibrate.effects import LIBRARY, amp_phase, load_share_window
 from gearrom.calibrate.microgeom import MicroMods
-from gearrom.calibrate.model import N_TABLE, RunModel, realigned
-from gearrom.calibrate.residual import detrend, map_to_run
-from gearrom.calibrate.simulator import ModelChanges
+from gearrom.calibrate.model import N_TABLE, RunModel
+from gearrom.calibrate.residual import detrend
 
 log = logging.getLogger(__name__)
 UM = 1e-6
@@ -269,194 +265,10 @@ class PitchError(Candidate):
         return {"kinematic_in" if _shaft(self.target) == "input" else "kinematic_out": tab - tab.mean()}
 
 
-class Micro(Candidate):
-    """tip_relief / lead_crowning / helix_slope through the STE change at the GMF harmonics."""
-
-    def _mods(self, ctx: Context, value_um: float) -> MicroMods:
-        base = ctx.micro_nominal
-        v = value_um * UM
-        if self.name == "tip_relief":
-            tr = list(base.tip_relief)
-            i = 0 if self.target == "input_gear" else 1
-            tr[i] = tr[i] + v
-            return MicroMods(tuple(tr), base.tip_relief_start_diameter, base.lead_crowning, base.helix_slope)
-        if self.name == "lead_crowning":
-            return MicroMods(base.tip_relief, base.tip_relief_start_diameter, base.lead_crowning + v, base.helix_slope)
-        return MicroMods(base.tip_relief, base.tip_relief_start_diameter, base.lead_crowning, base.helix_slope + v)
-
-    def _lo(self):
-        return -self.bound if self.name == "helix_slope" else 0.0
-
-    def _delta_ste(self, ctx: Context, torque: float, value: float) -> np.ndarray:
-        """STE change of the GMF harmonics at ``value`` um: the micro-geometry model on a grid of 33 values
-        over the plausible range, cubic interpolation in between (the lines vary smoothly with size)."""
-        key = ("delta", self.name, self.target, round(torque, 6))
-        if key not in ctx._ste:
-            grid = np.linspace(self._lo(), self.bound, 33)
-            base = ctx.ste_lines(torque, ctx.micro_nominal)
-            vals = np.array([ctx.ste_lines(torque, self._mods(ctx, v)) - base for v in grid])
-            ctx._ste[key] = CubicSpline(grid, vals, axis=0)
-        return ctx._ste[key](value)
-
-    def _waves(self, ctx: Context):
-        """Per run: e^{i h z1 theta_in} (h = 1..N_MESH_HARMONICS) on the run's grid, and H(h z1) (3, N) or 0."""
-        out = []
-        for m in ctx.models:
-            z1 = m.run.mesh.z1
-            orders, H = m.H["input"]
-            idx = {int(q): j for j, q in enumerate(orders)}
-            hs = np.arange(1, N_MESH_HARMONICS + 1)
-            W = np.exp(1j * np.outer(hs * z1, m.run.theta_in_rad))  # (N, n)
-            Hh = np.stack([H[:, idx[h * z1]] if h * z1 in idx else np.zeros(3, complex) for h in hs], axis=1)
-            out.append((W, Hh))
-        return out
-
-    def _coeffs(self, ctx: Context, m: RunModel, Hh: np.ndarray, value: float, psi: float | None) -> np.ndarray:
-        """Complex line coefficients (3, N) of the contribution: the nominal lines plus the STE change
-        through H, at mesh phase psi, minus the nominal lines at the run's own mesh phase."""
-        z1 = m.run.mesh.z1
-        hs = np.arange(1, N_MESH_HARMONICS + 1)
-        d = self._delta_ste(ctx, m.run.torque_out_Nm, value)
-        nom = np.zeros((3, N_MESH_HARMONICS), complex)
-        k = min(N_MESH_HARMONICS, m.gmf_model3.shape[1])
-        nom[:, :k] = m.gmf_model3[:, :k]
-        p = m.psi if (psi is None or m.psi_identifiable) else psi
-        return (nom + Hh * d[None, :]) * np.exp(1j * hs * z1 * p)[None, :] - nom * np.exp(1j * hs * z1 * m.psi)[None, :]
-
-    def _contrib(self, ctx, waves, value, psi_free):
-        out = []
-        for m, (W, Hh) in zip(ctx.models, waves):
-            c = self._coeffs(ctx, m, Hh, value, psi_free)
-            out.append(_dt((c @ W).real))
-        return out
-
-    def fit(self, ctx, R):
-        waves = self._waves(ctx)
-        free = not all(m.psi_identifiable for m in ctx.models)
-        z1 = ctx.models[0].run.mesh.z1
-        psis = np.linspace(0, 2 * math.pi / z1, 61)[:-1] if free else [None]
-        lo, hi = self._lo(), self.bound
-        nr = len(ctx.models)
-        # the contribution is linear in the (3 x N) complex line coefficients per run: Gram system
-        cols = []
-        for r, (W, _) in enumerate(waves):
-            for part in ("re", "im"):
-                for row in range(3):
-                    for h in range(N_MESH_HARMONICS):
-                        per = [np.zeros((3, m.run.t_s.size)) for m in ctx.models]
-                        per[r][row] = _dt(W[h].real if part == "re" else -W[h].imag)
-                        cols.append(ctx.stack(per))
-        Phi = np.column_stack(cols)
-        G, b = Phi.T @ Phi, Phi.T @ R
-
-        def coeffs(v, psi):
-            c = []
-            for m, (_, Hh) in zip(ctx.models, waves):
-                cc = self._coeffs(ctx, m, Hh, v, psi)
-                c.extend([*cc.real.ravel(), *cc.imag.ravel()])
-            return np.array(c)
-
-        def dss_of(v, psi):
-            c = coeffs(v, psi)
-            return float(2 * c @ b - c @ G @ c)
-
-        grid = np.linspace(lo, hi, 13)
-        best = (-np.inf, 0.0, None)
-        for v in grid:
-            for psi in psis:
-                d = dss_of(v, psi)
-                if d > best[0]:
-                    best = (d, v, psi)
-        _, v0, psi0 = best
-        step = (hi - lo) / 12
-        if psi0 is None:
-            r = minimize_scalar(lambda v: -dss_of(v, None), bounds=(max(lo, v0 - step), min(hi, v0 + step)),
-                                method="bounded", options={"xatol": 1e-3 * (hi - lo)})
-            v = float(r.x) if -r.fun > best[0] else v0
-        else:
-            dpsi = psis[1] - psis[0]
-            r = minimize(lambda p: -dss_of(p[0], p[1]), [v0, psi0], method="Nelder-Mead",
-                         bounds=[(max(lo, v0 - step), min(hi, v0 + step)), (psi0 - dpsi, psi0 + dpsi)],
-                         options={"xatol": 1e-4 * (hi - lo), "fatol": 1e-6 * abs(best[0]) + 1e-30, "maxiter": 60})
-            if -r.fun > best[0]:
-                v, psi0 = float(r.x[0]), float(r.x[1]) % (2 * math.pi / z1)
-            else:
-                v = v0
-        d = dss_of(v, psi0)
-        contrib = self._contrib(ctx, waves, v, psi0)
-        assert nr == len(contrib)
-        info = {"psi_rad": psi0}
-        if self.name == "tip_relief":
-            dca = ctx.micro_nominal.tip_relief_start_diameter[0 if self.target == "input_gear" else 1]
-            info["start_diameter_mm"] = None if dca is None else dca * 1e3  # from the config (not fitted)
-        return Trial(self, np.array([v]), contrib, d, 2 if free else 1, info)
-
-    def report(self, x, info):
-        out = {"amount_um": float(x[0])}
-        if self.name == "tip_relief":
-            out["start_diameter_mm"] = info.get("start_diameter_mm")
-        return out
-
-    def changes(self, x, info, ctx):
-        return {"micro": self._mods(ctx, float(x[0]))}
-
-
-class RigMode(Candidate):
-    """torsional_mode: one rig parameter scaled, by re-simulation."""
-
-    def __init__(self, param: str):
-        super().__init__("torsional_mode", "")
-        self.param = param
-
-    def __repr__(self):
-        return f"torsional_mode[{self.param}]"
-
-    def _contrib(self, ctx: Context, scale: float) -> tuple[list, list]:
-        out, psis = [], []
-        for m in ctx.models:
-            h = ctx.sim.simulate(m.cond, ModelChanges(rig_scale=((self.param, scale),)))
-            mapped, psi = realigned(m, h)
-            out.append(mapped - m.nominal)
-            psis.append(psi)
-        return out, psis
-
-    def fit(self, ctx, R):
-        cache = {}
-
-        def dss(logs):
-            s = round(math.exp(logs), 6)
-            if s not in cache:
-                c, psis = self._contrib(ctx, s)
-                v = ctx.stack(c)
-                cache[s] = (float(2 * v @ R - v @ v), c, psis)
-            return cache[s][0]
-
-        grid = np.linspace(math.log(0.4), math.log(2.5), 7)
-        vals = [dss(g) for g in grid]
-        j = int(np.argmax(vals))
-        lo, hi = grid[max(j - 1, 0)], grid[min(j + 1, grid.size - 1)]
-        r = minimize_scalar(lambda g: -dss(g), bounds=(lo, hi), method="bounded", options={"xatol": 0.003, "maxiter": 12})
-        g = float(r.x) if -r.fun > vals[j] else float(grid[j])
-        s = round(math.exp(g), 6)
-        d = dss(g)
-        return Trial(self, np.array([s]), cache[s][1], d, 1, {"parameter": self.param, "psi_runs": cache[s][2]})
-
-    def report(self, x, info):
-        s = float(x[0])
-        out = {"parameter": self.param, "scale": s}
-        modes0 = getattr(self.sim_ref, "modes_hz", lambda *_: [])() if hasattr(self, "sim_ref") else []
-        modes1 = self.sim_ref.modes_hz(((self.param, s),)) if modes0 else []
-        if modes0 and modes1 and len(modes0) == len(modes1):
-            j = int(np.argmax([abs(b[0] / a[0] - 1) for a, b in zip(modes0, modes1)]))
-            out.update(frequency_hz=modes1[j][0], damping_ratio=modes1[j][1], nominal_frequency_hz=modes0[j][0])
-        return out
-
-    def changes(self, x, info, ctx):
-        return {"rig_scale": ((self.param, float(x[0])),)}
-
-
 def make_candidates(ctx: Context) -> list[Candidate]:
     """All candidates allowed by the settings and the simulator."""
+    from gearrom.calibrate.fit_mesh import Micro, RigMode
+
     names = ctx.s.candidates or tuple(LIBRARY)
     out: list[Candidate] = []
     for name in names:

@@ -7,7 +7,8 @@ import math
 import numpy as np
 from scipy.optimize import lsq_linear
 
-from gearrom.calibrate.fit import Context, Micro, Trial
+from gearrom.calibrate.fit import Context, Trial
+from gearrom.calibrate.fit_mesh import Micro
 from gearrom.calibrate.microgeom import MicroMods
 from gearrom.calibrate.residual import map_to_run
 from gearrom.calibrate.simulator import ModelChanges

@@ -68,7 +68,7 @@ def contact_length_window(pair, z: int, tooth: int) -> np.ndarray:
     """
     u = np.arange(N_TAB) / N_TAB * z  # position in mesh periods
     ea, eb = pair.eps_alpha, max(pair.eps_beta, 1e-3)
-    lo, hi = min(ea, eb), max(ea, eb)
+    lo = min(ea, eb)
 
     def trap(x):
         x = np.mod(x, z)

@@ -3,8 +3,6 @@ from __future__ import annotations
 
 import json
 
-import pytest
-
 from gearrom.calibrate import DiagnosisResult, Injected
 from gearrom.cli import main
 
