@@ -10,9 +10,15 @@ References:
   120 Nm in the mean (within 10 %, the residual oscillation);
 * no initial overclosure (Abaqus/Explicit check): zero contact energy at t = 0;
 * splitting triangles into quads preserves the area exactly and yields counter-clockwise quads.
-NOT checked here (see the report): the TE magnitude. On this coarse mesh (0.3 mm flank, 2 mm body
-elements) the loaded TE (~45 um at 120 Nm) is about 4 x the ISO 6336-1 estimate F/(c_gamma b)
-(~11 um); that gap is not explained yet.
+* quasi-static TE (1 rpm, mass damping, torque ramped over 0.2 ms) vs the ISO 6336-1 method B mesh
+  stiffness (reference-values.md: c_gamma_alpha ~ 20.6 N/(mm um), ~370 N/um for b = 18 mm), i.e.
+  TE ~ F_bt / (c_gamma_alpha b) ~ 11 um. ISO is a +-20 % anchor of the mean over a mesh cycle, and
+  the coarse mesh (0.3 mm flank elements against a 0.1 mm Hertz half-width, penalty compliance) is
+  softer: accepted band 0.9 ... 1.5 x ISO.
+Why the TE magnitude is not checked at 2000 rpm here: with a 0.3 mm outline the rigid-geometry TE
+of the faceted profiles already varies by ~10 um and the coarse fillet chords interfere with the
+mating tip ~10 deg from the pitch point (at a 0.1 mm outline: +-0.5 um, no interference), so the
+gears hammer and the dynamic TE on this mesh is not meaningful.
 """
 from __future__ import annotations
 
@@ -42,6 +48,23 @@ def test_gear_pair_stays_in_mesh_and_carries_load(run):
     assert np.all(te[loaded] > 0)
     assert abs(np.mean(res.torque_body[loaded, 1]) / -120.0 - 1) < 0.10
     assert res.energy_error < 1e-3
+
+
+def _iso_te(pair, torque):
+    z1, z2 = pair.z
+    q = 0.04723 + 0.15551 / z1 + 0.25791 / z2                       # x1 = x2 = 0
+    c_b = (1 + 0.5 * (1.2 - 1.25)) * (1 - 0.02 * (20 - 17.0))       # h_fP = 1.25 m_n, alpha_n = 17 deg
+    c_ga = 1 / q * 0.8 * 1.0 * c_b * (0.75 * pair.eps_alpha + 0.25)  # N/(mm um)
+    return torque / pair.rb[1] / (c_ga * pair.gears[0].face_width * 1e9)
+
+
+def test_quasi_static_te_vs_iso_stiffness():
+    pair = load_config("thesis-spur").pair
+    meshes = [gear_quad_mesh(pair, i, 0.3e-3, 2e-3) for i in (0, 1)]
+    setup = GearPairSetup(rpm_in=1.0, torque_out=120.0, torque_ramp_time=0.2e-3, mass_damping=1e4)
+    res, te, info = run_gear_pair(pair, meshes, setup, t_end=0.35e-3, sample_period=5e-6)
+    ratio = np.mean(te[res.t >= 0.3e-3]) / _iso_te(pair, 120.0)
+    assert 0.9 < ratio < 1.5, ratio
 
 
 def test_triangles_to_quads_area_and_orientation():
