@@ -125,7 +125,11 @@ def _evidence(ctx: Context, t: Trial, D: list) -> str:
         txt += "; GMF harmonics changed as the flank modification predicts (mesh phase " + \
                ("estimated from the nominal GMF" if t.info.get("psi_rad") is None else "fitted: nominal had no GMF content") + ")"
     elif name == "torsional_mode":
-        txt += f"; the residual follows a re-tuned rig ({t.info.get('parameter')}), changing the response near a mode"
+        rep = t.cand.report(t.x, t.info)
+        txt += f"; the residual follows a re-tuned rig ({t.info.get('parameter')} x{rep['scale']:.3g})"
+        if "frequency_hz" in rep:
+            txt += (f", which moves a mode from {rep['nominal_frequency_hz']:.0f} to {rep['frequency_hz']:.0f} Hz "
+                    "and changes the response of the lines near it")
     return txt
 
 
@@ -190,6 +194,14 @@ def _assemble(ctx: Context, config, sim, D, accepted, steps, after) -> Diagnosis
     floors = [max(fl, UNEXPLAINED_NOISE * m.noise_m) for fl, m in zip(floors, models)]
     peaks = [chz.spectral_peaks(ra, m.run.fs_hz, m.noise_m, floor_m=fl) for ra, m, fl in zip(res_a, models, floors)]
     unexplained = chz.classify_peaks([m.run for m in models], peaks)
+    for u in unexplained:  # a leftover at the lines of a fitted effect is a misfit of it, not a new effect
+        lab = u.get("integer_order") or ""
+        for t in accepted:
+            n = t.cand.name
+            if (("GMF" in lab and n in ("tip_relief", "lead_crowning", "helix_slope", "torsional_mode"))
+                    or (lab.endswith("order 1") and n in ("eccentricity", "encoder_eccentricity"))
+                    or (n == "pitch_error" and lab.startswith(t.cand.target.split("_")[0]))):
+                u["at_lines_of"] = n
     peaks_b = [chz.spectral_peaks(rb, m.run.fs_hz, m.noise_m) for rb, m in zip(res_b, models)]
     noise_line = [m.noise_m * math.sqrt(2 / m.run.t_s.size) for m in models]
     characterization = {

@@ -19,6 +19,7 @@ from scipy.optimize import minimize, minimize_scalar
 from gearrom.calibrate.fit import N_MESH_HARMONICS, UM, Candidate, Context, Trial, _dt
 from gearrom.calibrate.microgeom import MicroMods
 from gearrom.calibrate.model import RunModel, realigned
+from gearrom.calibrate.residual import map_to_run
 from gearrom.calibrate.simulator import ModelChanges
 
 
@@ -143,6 +144,39 @@ class Micro(Candidate):
             dca = ctx.micro_nominal.tip_relief_start_diameter[0 if self.target == "input_gear" else 1]
             info["start_diameter_mm"] = None if dca is None else dca * 1e3  # from the config (not fitted)
         return Trial(self, np.array([v]), contrib, d, 2 if free else 1, info)
+
+    def resimulated(self, ctx: Context, value: float, psi_free) -> list:
+        """Contribution by re-simulation (the flank modification also changes the stiffness variation,
+        which the linear ``H x STE change`` misses near the mesh resonance)."""
+        out = []
+        for m in ctx.models:
+            p = m.psi if (psi_free is None or m.psi_identifiable) else psi_free
+            h = ctx.sim.simulate(m.cond, ModelChanges(micro=self._mods(ctx, value), mesh_phase_rad=p))
+            out.append(map_to_run(h, m.run) - m.nominal)
+        return out
+
+    def refine(self, ctx: Context, R: np.ndarray, t: Trial, n_eval: int = 8) -> Trial:
+        """Re-simulated bounded search of the size around the linearized estimate (mesh phase kept)."""
+        psi = t.info.get("psi_rad")
+        cache = {}
+
+        def dss(v):
+            v = float(np.clip(v, self._lo(), self.bound))
+            if v not in cache:
+                c = self.resimulated(ctx, v, psi)
+                x = ctx.stack(c)
+                cache[v] = (float(2 * x @ R - x @ x), c)
+            return cache[v][0]
+
+        v0 = float(t.x[0])
+        span = 0.25 * (self.bound - self._lo())
+        minimize_scalar(lambda v: -dss(v), bounds=(max(self._lo(), v0 - span), min(self.bound, v0 + span)),
+                            method="bounded", options={"maxiter": n_eval, "xatol": 1e-3 * span})
+        best = max(cache, key=lambda k: cache[k][0])
+        dss(v0)
+        if cache[v0][0] >= cache[best][0]:
+            best = v0
+        return Trial(self, np.array([best]), cache[best][1], cache[best][0], t.n_par, {**t.info, "resimulated": True})
 
     def report(self, x, info):
         out = {"amount_um": float(x[0])}

@@ -83,7 +83,8 @@ class DiagnosisResult:
         for u in s["unexplained"]:
             o = f"order {u['order']:.3f} (output order {u['order_out']:.3f})" if u["order"] is not None else "no order"
             lines.append(f"    {u['frequency_hz']:.1f} Hz, {o}, {u['kind']}, {u['amplitude_um']:.3g} um"
-                         + (f" (at {u['integer_order']})" if u.get("integer_order") else ""))
+                         + (f" (at {u['integer_order']})" if u.get("integer_order") else "")
+                         + (f" [residual misfit at the lines of {u['at_lines_of']}]" if u.get("at_lines_of") else ""))
         for w in s.get("warnings", []):
             lines.append(f"Warning: {w}")
         return "\n".join(lines) + "\n"
@@ -113,7 +114,9 @@ class DiagnosisResult:
         ax2.bar(x - 0.2, [o["before_um"] for o in orders], 0.4, label="residual before")
         ax2.bar(x + 0.2, [o["after_um"] for o in orders], 0.4, label="residual after")
         ax2.set_xticks(x, [o["label"] for o in orders], rotation=60, fontsize=7)
-        ax2.set(ylabel="amplitude [um]", title="residual order lines (joint least squares on shaft angles)")
+        ax2.set_yscale("log")
+        ax2.set(ylabel="amplitude [um]", title="residual order lines (joint least squares on shaft angles)",
+                ylim=(max(1e-4, 0.3 * r["noise_rms_um"] * math.sqrt(2 / max(tr.t_s.size, 1))), None))
         ax2.legend(fontsize=8)
         for y, lab in ((tr.measured - tr.model_before, "residual before"), (tr.measured - tr.model_after, "residual after")):
             n = y.size

@@ -128,6 +128,10 @@ def select_effects(ctx: Context, candidates: list, D: list[np.ndarray]) -> tuple
         if not trials:
             break
         trials.sort(key=lambda t: -t.dss)
+        for i, t in enumerate(trials[:2]):  # the leading flank-modification candidates: re-simulated sizes
+            if isinstance(t.cand, Micro):
+                trials[i] = t.cand.refine(ctx, R, t)
+        trials.sort(key=lambda t: -t.dss)
         _apply_split_test(ctx, R, trials)
         best = trials[0]
         thresh = max(s.kappa * ctx.noise_var * best.n_par, s.min_fraction * ss, s.min_total_fraction * float(R0 @ R0))
@@ -185,6 +189,8 @@ def joint_refit(ctx: Context, accepted: list[Trial], R0: np.ndarray, sweeps: int
         for i in non:
             others = sum((ctx.stack(u.contrib) for j2, u in enumerate(accepted) if j2 != i), zero)
             new = accepted[i].cand.fit(ctx, R0 - others)
+            if isinstance(new.cand, Micro):
+                new = new.cand.refine(ctx, R0 - others, new)
             new.info = {**accepted[i].info, **new.info}
             accepted[i] = new
         if not non:
