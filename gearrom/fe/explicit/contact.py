@@ -190,10 +190,8 @@ def contact_forces_3d(x, v, slaves, s_pair, segs, g_k, cand, ncand, p_mu, p_vreg
     """Add 3D node-to-bilinear-facet penalty/friction forces to ``f``; see :func:`contact_forces_2d`."""
     epot = 0.0
     pfric = 0.0
-    sx = np.array([-1.0, 1.0, 1.0, -1.0])
-    sy = np.array([-1.0, -1.0, 1.0, 1.0])
-    N = np.empty(4)
-    bN = np.empty(4)
+    sx = (-1.0, 1.0, 1.0, -1.0)
+    sy = (-1.0, -1.0, 1.0, 1.0)
     for i in range(slaves.shape[0]):
         gap[i] = 0.0
         if ncand[i] == 0:
@@ -204,6 +202,7 @@ def contact_forces_3d(x, v, slaves, s_pair, segs, g_k, cand, ncand, p_mu, p_vreg
         best = -1
         bg = 0.0
         bn0 = 0.0; bn1 = 0.0; bn2 = 0.0
+        bxi = 0.0; beta = 0.0
         for m in range(ncand[i]):
             s = cand[i, m]
             xi = 0.0
@@ -244,13 +243,14 @@ def contact_forces_3d(x, v, slaves, s_pair, segs, g_k, cand, ncand, p_mu, p_vreg
             if g < 0.0 and g > -depth and (best < 0 or g > bg):
                 best = s; bg = g
                 bn0 = n0; bn1 = n1; bn2 = n2
-                xi = min(max(xi, -1.0), 1.0); eta = min(max(eta, -1.0), 1.0)
-                for q in range(4):
-                    bN[q] = 0.25 * (1 + sx[q] * xi) * (1 + sy[q] * eta)
+                bxi = min(max(xi, -1.0), 1.0); beta = min(max(eta, -1.0), 1.0)
         if best < 0:
             continue
-        for q in range(4):
-            N[q] = bN[q]
+        N0 = 0.25 * (1 - bxi) * (1 - beta)
+        N1 = 0.25 * (1 + bxi) * (1 - beta)
+        N2 = 0.25 * (1 + bxi) * (1 + beta)
+        N3 = 0.25 * (1 - bxi) * (1 + beta)
+        N = (N0, N1, N2, N3)
         k = g_k[best]
         fn = -k * bg
         gap[i] = bg
