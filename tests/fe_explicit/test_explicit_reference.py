@@ -68,3 +68,20 @@ def test_prescribed_speed_ramp_reaction():
     assert abs(res.omega[-1, 0] - omega) < 1e-9
     assert abs(res.theta[-1, 0] - omega * (t[-1] - t_ramp / 2)) < 1e-9
     assert res.energy_error < 1e-3
+
+
+def test_driver_through_torsional_spring():
+    """Speed-driven driver + spring-damper + inertia (a drivetrain part): steady state
+    omega = Omega and spring wind-up theta - theta_driver = T / k (statics of the spring)."""
+    omega, torque, j_extra = 50.0, 10.0, 20 * J_RING
+    j_tot = J_RING + j_extra
+    k = j_tot * (2 * np.pi * 200.0) ** 2
+    c = 2 * 0.7 * np.sqrt(k * j_tot)                        # 70 % of critical damping
+    ref = RigidReference("bore", speed=omega, ramp_time=2e-3, torque=torque, inertia=j_extra,
+                         spring_k=k, spring_c=c)
+    res = solve(_ring(ref), 0.012, sample_period=5e-5)
+    t = res.t[-1]
+    theta_driver = omega * (t - 2e-3 / 2)
+    assert abs(res.omega[-1, 0] / omega - 1) < 1e-3
+    assert abs((res.theta[-1, 0] - theta_driver) / (torque / k) - 1) < 0.01
+    assert res.energy_error < 1e-3
