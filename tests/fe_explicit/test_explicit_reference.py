@@ -85,3 +85,21 @@ def test_driver_through_torsional_spring():
     assert abs(res.omega[-1, 0] / omega - 1) < 1e-3
     assert abs((res.theta[-1, 0] - theta_driver) / (torque / k) - 1) < 0.01
     assert res.energy_error < 1e-3
+
+
+def test_hex8_ring_torque_about_z():
+    """3D: a Hex8 ring (the annulus extruded by 10 mm) tied at the bore to a reference rotating
+    about z: theta = T t^2 / (2 J), J = rho h pi (Ro^4 - Ri^4) / 2 (1 %, polygonal mesh)."""
+    nodes2, quads, inner, _ = annulus_q4(RI, RO, 3, 48)
+    h, nl = 0.01, 2
+    n2 = nodes2.shape[0]
+    nodes = np.vstack([np.column_stack([nodes2, np.full(n2, z)]) for z in np.linspace(0, h, nl + 1)])
+    elements = np.vstack([np.hstack([quads + k * n2, quads + (k + 1) * n2]) for k in range(nl)])
+    bore = np.concatenate([inner + k * n2 for k in range(nl + 1)])
+    torque = 50.0
+    model = ExplicitModel(nodes, elements, MAT, node_sets={"bore": bore},
+                          references=(RigidReference("bore", torque=torque),))
+    res = solve(model, 4e-3, sample_period=1e-4)
+    j = MAT.rho * h * np.pi * (RO ** 4 - RI ** 4) / 2
+    assert abs(res.theta[-1, 0] / (torque * res.t[-1] ** 2 / (2 * j)) - 1) < 0.01
+    assert res.energy_error < 1e-3
