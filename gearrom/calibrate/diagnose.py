@@ -120,7 +120,10 @@ def _evidence(ctx: Context, t: Trial, D: list) -> str:
             txt += (f"; split test: other channel {100 * st['other_channel_share']:.1f} % of the TE line -> "
                     f"{ {'real': 'the shaft moves', 'none': 'nothing moves', 'unclear': 'unclear'}[st['verdict']] }")
     elif name == "pitch_error":
-        txt += f"; impulsive once-per-rev pattern of the {t.cand.target.split('_')[0]} gear (comb of its shaft orders)"
+        shaft = t.cand.target.split("_")[0]
+        crest = chz.impulsiveness(ctx.models[0].run, D[0][0]).get(shaft)
+        txt += f"; impulsive once-per-rev pattern of the {shaft} gear (comb of its shaft orders"
+        txt += f", crest factor of the per-revolution average {crest:.2g})" if crest else ")"
     elif name in ("tip_relief", "lead_crowning", "helix_slope"):
         txt += "; GMF harmonics changed as the flank modification predicts (mesh phase " + \
                ("estimated from the nominal GMF" if t.info.get("psi_rad") is None else "fitted: nominal had no GMF content") + ")"

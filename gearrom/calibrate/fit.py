@@ -112,7 +112,7 @@ class Candidate:
     def report(self, x: np.ndarray, info: dict) -> dict:  # pragma: no cover
         raise NotImplementedError
 
-    def changes(self, x: np.ndarray, info: dict, ctx: Context) -> dict:
+    def changes(self, x: np.ndarray, info: dict, ctx: Context, run: int = 0) -> dict:
         """Keyword changes for the verification simulation (kinematic tables, micro, rig scale)."""
         return {}
 
@@ -202,10 +202,12 @@ class OncePerRev(Candidate):
             out["phase_deg_per_run"] = [p[1] for p in pairs]
         return out
 
-    def changes(self, x, info, ctx):
+    def changes(self, x, info, ctx, run: int = 0):
         if self.name != "eccentricity":
             return {}
-        a, ph, _ = self._amp_phase(x)
+        a, ph, pairs = self._amp_phase(x)
+        if len(pairs) > 1:  # phases per run (files not started at the encoder index)
+            a, ph = pairs[run]
         th = np.arange(N_TABLE) * 2 * math.pi / N_TABLE
         tab = a * UM * np.cos(th + math.radians(ph))
         return {"kinematic_in" if _shaft(self.target) == "input" else "kinematic_out": tab}
@@ -259,7 +261,7 @@ class PitchError(Candidate):
     def report(self, x, info):
         return {"tooth_index": int(info["tooth_index"]), "deviation_um": float(x[0])}
 
-    def changes(self, x, info, ctx):
+    def changes(self, x, info, ctx, run: int = 0):
         w, z = self._window(ctx, ctx.models[0].run.torque_out_Nm)
         tab = float(x[0]) * UM * np.roll(w, int(round(info["tooth_index"] * N_TABLE / z)))
         return {"kinematic_in" if _shaft(self.target) == "input" else "kinematic_out": tab - tab.mean()}

@@ -184,7 +184,7 @@ class Micro(Candidate):
             out["start_diameter_mm"] = info.get("start_diameter_mm")
         return out
 
-    def changes(self, x, info, ctx):
+    def changes(self, x, info, ctx, run: int = 0):
         return {"micro": self._mods(ctx, float(x[0]))}
 
 
@@ -238,5 +238,5 @@ class RigMode(Candidate):
             out.update(frequency_hz=modes1[j][0], damping_ratio=modes1[j][1], nominal_frequency_hz=modes0[j][0])
         return out
 
-    def changes(self, x, info, ctx):
+    def changes(self, x, info, ctx, run: int = 0):
         return {"rig_scale": ((self.param, float(x[0])),)}

@@ -198,8 +198,8 @@ def joint_refit(ctx: Context, accepted: list[Trial], R0: np.ndarray, sweeps: int
     return accepted
 
 
-def verification_changes(ctx: Context, accepted: list[Trial]) -> tuple[dict, list]:
-    """Model changes of all accepted effects together, and the measurement-only terms per run."""
+def verification_changes(ctx: Context, accepted: list[Trial], run: int = 0) -> tuple[dict, list]:
+    """Model changes of all accepted effects together (for run ``run``), and the measurement-only terms per run."""
     kin = {"kinematic_in": None, "kinematic_out": None}
     micro = ctx.micro_nominal
     rig = []
@@ -207,7 +207,7 @@ def verification_changes(ctx: Context, accepted: list[Trial]) -> tuple[dict, lis
     psi_free = None
     psi_runs = None
     for t in accepted:
-        ch = t.cand.changes(t.x, t.info, ctx)
+        ch = t.cand.changes(t.x, t.info, ctx, run)
         for k in kin:
             if k in ch:
                 kin[k] = ch[k] if kin[k] is None else kin[k] + ch[k]
@@ -234,9 +234,10 @@ def verify(ctx: Context, accepted: list[Trial]) -> list[np.ndarray]:
     """Re-simulate every run with all accepted effects; model signals (3, n) per run on the run's grid."""
     if not accepted:
         return [m.nominal.copy() for m in ctx.models]
-    spec, meas = verification_changes(ctx, accepted)
     out = []
-    for r, (m, mt) in enumerate(zip(ctx.models, meas)):
+    for r, m in enumerate(ctx.models):
+        spec, meas = verification_changes(ctx, accepted, r)
+        mt = meas[r]
         psi = m.psi
         if spec["psi_runs"] is not None:
             psi = spec["psi_runs"][r]

@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import json
 
+import pytest
+
 from gearrom.calibrate import DiagnosisResult, Injected
 from gearrom.cli import main
 
@@ -57,8 +59,10 @@ def test_cli_missing_file(tmp_path, capsys):
     assert "nope.json" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_closed_loop_notebook_runs():
-    """notebooks/closed_loop.ipynb runs top to bottom and finds both injected effects."""
+    """notebooks/closed_loop.ipynb runs top to bottom and finds both injected effects (slow: the same
+    two-effect case runs in the suite as test_two_effects_at_once)."""
     import matplotlib
 
     from pathlib import Path
