@@ -10,11 +10,11 @@ References:
   120 Nm in the mean (within 10 %, the residual oscillation);
 * no initial overclosure (Abaqus/Explicit check): zero contact energy at t = 0;
 * splitting triangles into quads preserves the area exactly and yields counter-clockwise quads.
-* quasi-static TE (1 rpm, mass damping, torque ramped over 0.2 ms) vs the ISO 6336-1 method B mesh
+* quasi-static TE (1 rpm, mass damping, torque ramped over 0.15 ms) vs the ISO 6336-1 method B mesh
   stiffness (reference-values.md: c_gamma_alpha ~ 20.6 N/(mm um), ~370 N/um for b = 18 mm), i.e.
   TE ~ F_bt / (c_gamma_alpha b) ~ 11 um. ISO is a +-20 % anchor of the mean over a mesh cycle, and
   the coarse mesh (0.3 mm flank elements against a 0.1 mm Hertz half-width, penalty compliance) is
-  softer (measured 1.34 x ISO with kappa_hg = 0.05, 1.24 x with 0.5): accepted band 0.9 ... 1.5 x ISO.
+  softer (measured 1.3-1.4 x ISO with kappa_hg = 0.05, 1.24 x with 0.5): band 0.9 ... 1.5 x ISO.
 Why the TE magnitude is not checked at 2000 rpm here: with a 0.3 mm outline the rigid-geometry TE
 of the faceted profiles already varies by ~10 um and the coarse fillet chords interfere with the
 mating tip ~10 deg from the pitch point (at a 0.1 mm outline: +-0.5 um, no interference), so the
@@ -61,9 +61,9 @@ def _iso_te(pair, torque):
 def test_quasi_static_te_vs_iso_stiffness():
     pair = load_config("thesis-spur").pair
     meshes = [gear_quad_mesh(pair, i, 0.3e-3, 2e-3) for i in (0, 1)]
-    setup = GearPairSetup(rpm_in=1.0, torque_out=120.0, torque_ramp_time=0.2e-3, mass_damping=4e4)
-    res, te, info = run_gear_pair(pair, meshes, setup, t_end=0.35e-3, sample_period=5e-6)
-    ratio = np.mean(te[res.t >= 0.3e-3]) / _iso_te(pair, 120.0)
+    setup = GearPairSetup(rpm_in=1.0, torque_out=120.0, torque_ramp_time=0.15e-3, mass_damping=4e4)
+    res, te, info = run_gear_pair(pair, meshes, setup, t_end=0.28e-3, sample_period=5e-6)
+    ratio = np.mean(te[res.t >= 0.24e-3]) / _iso_te(pair, 120.0)
     assert 0.9 < ratio < 1.5, ratio
 
 
