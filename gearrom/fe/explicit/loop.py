@@ -22,7 +22,6 @@ import math
 import types
 from pathlib import Path
 
-import numpy as np
 from numba import njit, prange
 
 from gearrom.fe.explicit.contact import contact_forces_2d, contact_forces_3d, contact_search
