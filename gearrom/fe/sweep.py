@@ -223,3 +223,27 @@ def stiffness_sweep(pair, torques, n_positions: int = 64, settings: MeshSettings
         raise ModelError("stiffness_sweep: helical pairs need the 3D model, which is not available yet")
     return mesh_cycle(build_ltca(pair, settings, cache_dir), torques, n_positions, **kw)
 
+
+
+def kinematic_te(ltca: SpurLTCA, n_cycles: int | None = None, n_per_cycle: int = 16) -> tuple[np.ndarray, np.ndarray]:
+    """Unloaded TE from micro-geometry and errors (pitch, runout) over ``n_cycles`` mesh periods.
+
+    No contact solve: the TE at each position is the smallest initial gap along the line of
+    action (the first point that touches). Default: one input-gear revolution (z1 mesh periods).
+
+    Returns
+    -------
+    angle : ndarray
+        Input-gear rotation from the start [rad].
+    te : ndarray
+        Kinematic TE along the transverse line of action [m] (positive: output lags).
+    """
+    n_cycles = ltca.pair.z[0] if n_cycles is None else int(n_cycles)
+    th = np.arange(n_per_cycle) * ltca.period / n_per_cycle
+    angle, te = [], []
+    for m in range(n_cycles):
+        for t in th:
+            c = ltca.candidates(t, mesh_index=m)
+            angle.append(m * ltca.period + t)
+            te.append(min(x[7] for x in c))
+    return np.asarray(angle), np.asarray(te)
