@@ -82,7 +82,9 @@ def prepare(model: ExplicitModel, safety: float = 0.9, max_candidates: int = 8) 
             raise ConfigError(f"RigidReference {ref.nodes!r}: nodes already tied to another reference")
         kind[ids] = r
         m = mass[ids]
-        c = (m[:, None] * X[ids]).sum(0) / m.sum()
+        c = X[ids].mean(axis=0)
+        if ref.center is not None:
+            c[:2] = ref.center
         off = X[ids] - c
         r_center[r] = c
         r_nodes.append(ids)

@@ -229,9 +229,11 @@ def gear_pair_model(pair, meshes, setup: GearPairSetup, material: Material | Non
         r2 = nodes[off:] - center2
         v0[off:] = omega2 * np.column_stack([-r2[:, 1], r2[:, 0]])
     refs = (
-        RigidReference("bore_1", speed=omega1, ramp_time=max(setup.ramp_time, 0.0), inertia=setup.inertia_in),
+        RigidReference("bore_1", speed=omega1, ramp_time=max(setup.ramp_time, 0.0), inertia=setup.inertia_in,
+                       center=(0.0, 0.0)),
         RigidReference("bore_2", torque=setup.torque_out, torque_ramp_time=setup.torque_ramp_time,
-                       inertia=setup.inertia_out, omega0=omega2 if at_speed else 0.0),
+                       inertia=setup.inertia_out, omega0=omega2 if at_speed else 0.0,
+                       center=(float(center2[0]), float(center2[1]))),
     )
     contacts = (
         ContactPair("flank_1", "outline_2", mu=setup.mu, penalty_scale=setup.penalty_scale),

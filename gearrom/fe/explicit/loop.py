@@ -6,8 +6,8 @@ Per step (Belytschko, Liu & Moran, Nonlinear FE, box 6.1, with velocities also a
     tied nodes follow their reference exactly ;  f^{n+1} = f(u^{n+1}, v^{n+1/2}) (elements in
     parallel by colour, contact, loads, damping) ;  a^{n+1} = f / m ;  v^{n+1} = v^{n+1/2} + dt/2 a^{n+1}.
 
-A rigid reference (centre = mass centroid of its tied nodes, so translation and rotation decouple)
-has generalized forces Q_c = sum f_i, Q_theta = sum (x_i - c) x f_i |_z plus external torque and
+A rigid reference (centre = the gear axis; its offset from the centre of mass of the tied nodes is
+neglected in the translation-rotation coupling) has generalized forces Q_c = sum f_i, Q_theta = sum (x_i - c) x f_i |_z plus external torque and
 springs, mass M = sum m_i + m_extra and inertia J = sum m_i |r_i,perp|^2 + J_extra.
 
 Energies (columns of ``out_E``): 0 kinetic, 1 internal, 2 hourglass (stiffness), 3 hourglass viscous

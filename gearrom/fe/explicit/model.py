@@ -82,8 +82,12 @@ class Material:
 class RigidReference:
     """A reference node rigidly tied to a node set (kinematic coupling of a bore).
 
-    The reference point is the lumped-mass centroid of the tied nodes. DOFs: translations and
-    the rotation ``theta`` about z (rad, counter-clockwise positive).
+    DOFs: translations and the rotation ``theta`` about z (rad, counter-clockwise positive)
+    about the reference point ``center`` (default: the plain mean of the tied node coordinates,
+    the axis of a uniformly discretized bore). Give the gear axis explicitly when the bore
+    nodes are not uniform: a shifted point makes the body orbit around it. With free
+    translations the point should be the centre of mass of the tied nodes; the translation-
+    rotation coupling of an offset is neglected.
 
     Parameters
     ----------
@@ -111,6 +115,8 @@ class RigidReference:
         ``bearing_c`` (N s/m) to ground.
     theta0, omega0 : float
         Initial rotation (rad) and speed (rad/s). With a prescribed speed, omega0 is ignored.
+    center : tuple of float or None
+        Reference point (x, y), m.
     """
 
     nodes: str
@@ -127,8 +133,11 @@ class RigidReference:
     bearing_c: float = 0.0
     theta0: float = 0.0
     omega0: float = 0.0
+    center: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
+        if self.center is not None and (len(self.center) != 2 or not np.all(np.isfinite(self.center))):
+            raise ConfigError(f"RigidReference.center must be two finite coordinates (x, y) in m, got {self.center}")
         for name in ("ramp_time", "torque_ramp_time", "inertia", "mass", "spring_k", "spring_c",
                      "bearing_k", "bearing_c"):
             val = getattr(self, name)
