@@ -5,8 +5,13 @@ run condition, with optional *model changes* (the effects of the library). :clas
 that contract. Two implementations:
 
 * :class:`gearrom.calibrate.rig.TorsionalRig`: a small torsional drivetrain (numba RK4), always
-  available, fast; the default when the exudyn ROM is not importable.
-* :class:`RomSimulator`: adapter to ``gearrom.rom.simulate_run`` (issue 4), on request.
+  available, fast, with assumed rig values; it can re-tune rig parameters (``torsional_mode``).
+* :class:`RomSimulator`: adapter to the exudyn ROM ``gearrom.rom.simulate_run`` (issue 4): the
+  project's drivetrain model built from the configuration's ``[rig]`` description.
+
+:func:`default_simulator` picks the ROM for configurations that describe a rig, else the torsional
+rig model. Any object with ``name``, ``simulate``, ``tunable`` and ``modes_hz`` can be passed to
+:func:`gearrom.calibrate.diagnose` instead (e.g. a wrapper around another simulator).
 
 Conventions of :class:`ModelChanges`
 ------------------------------------
@@ -25,7 +30,6 @@ Conventions of :class:`ModelChanges`
 """
 from __future__ import annotations
 
-import inspect
 import logging
 import math
 from dataclasses import dataclass, field
@@ -157,7 +161,6 @@ class RomSimulator:
         self.micro_model = micro_model or SliceMicroModel()
         self.sample_rate_hz = float(sample_rate_hz)
         self.settle_s = round(settle_s * sample_rate_hz) / sample_rate_hz
-        self._params = set(inspect.signature(rom.simulate_run).parameters)
         self._models: dict = {}
         from gearrom.config import load_config
 
@@ -189,6 +192,8 @@ class RomSimulator:
         ch = changes or ModelChanges()
         if ch.rig_scale:
             raise CalibrationError("RomSimulator: the exudyn ROM exposes no rig-parameter scaling (rig_scale)")
+        if ch.micro is not None and self.micro_model is None:
+            raise CalibrationError("RomSimulator: no micro-geometry model to build a mesh table from")
         z1, z2 = self.pair.z
         omega = run.rpm_in * math.pi / 30.0
         psi = float(ch.mesh_phase_rad)
