@@ -43,7 +43,8 @@ def main(rpm: float = 2000.0, outline: float = 0.15e-3, body: float = 1.5e-3) ->
         "element_updates_per_s": res.meta["element_updates_per_s"], "parallel": res.meta["parallel"],
         "te_mean_um": float(te_um.mean()), "te_ptp_um": float(np.ptp(te_um)),
         "te_rms_um": float(np.sqrt(np.mean((te_um - te_um.mean()) ** 2))),
-        "hourglass_ratio": res.hourglass_ratio, "energy_error": res.energy_error,
+        "hourglass_ratio": res.hourglass_ratio, "hourglass_dissipation_ratio": res.hourglass_dissipation_ratio,
+        "energy_error": res.energy_error,
         "peak_memory_MB": peak_memory_MB(), "load_average_1_5_15": list(os.getloadavg()),
         "note": "one mesh period after the ramp only; 2 cores shared with other helpers",
     }

@@ -54,13 +54,22 @@ class ExplicitResult:
 
     @property
     def hourglass_ratio(self) -> float:
-        """Largest hourglass/internal energy ratio over samples with internal energy > 1 % of its max."""
+        """Largest ratio of the hourglass (stiffness) energy to the internal energy, over the samples
+        whose internal energy exceeds 10 % of its maximum (the Abaqus artificial-energy check)."""
         wi = self.energy("internal")
-        wh = self.energy("hourglass") + self.energy("hourglass_viscous")
+        wh = self.energy("hourglass")
         if wi.size == 0 or wi.max() <= 0:
             return 0.0
-        sel = wi > 0.01 * wi.max()
+        sel = wi > 0.1 * wi.max()
         return float(np.max(wh[sel] / wi[sel]))
+
+    @property
+    def hourglass_dissipation_ratio(self) -> float:
+        """Viscous hourglass dissipation at the end relative to the energy scale of the run
+        (largest of kinetic, internal and |external work|)."""
+        scale = max(np.abs(self.energy("kinetic")).max(), np.abs(self.energy("internal")).max(),
+                    np.abs(self.energy("external_work")).max(), 1e-300)
+        return float(self.energy("hourglass_viscous")[-1] / scale)
 
     @property
     def energy_error(self) -> float:
@@ -79,6 +88,8 @@ class ExplicitResult:
         meta = dict(self.meta)
         meta["energy_names"] = list(ENERGY_NAMES)
         meta["hourglass_ratio"] = self.hourglass_ratio
+        meta["hourglass_dissipation_ratio"] = self.hourglass_dissipation_ratio
+        meta["energy_error"] = self.energy_error
         p.with_suffix(".json").write_text(json.dumps(meta, indent=2, default=float) + "\n")
         return p.with_suffix(".npz")
 
