@@ -79,9 +79,18 @@ def diagnose(config: str | Path, measurements: Sequence[str | Path], *, simulato
     micro_nominal = getattr(sim, "micro", None) or MicroMods.from_pair(pair)
     ctx = Context(models, sim, settings, pair, micro_model, micro_nominal)
     D = [m.run.y - m.nominal for m in models]
-    accepted, steps = select_effects(ctx, make_candidates(ctx), D)
+    candidates = make_candidates(ctx)
+    accepted, steps = select_effects(ctx, candidates, D)
     after = verify(ctx, accepted)
-    return _assemble(ctx, config, sim, D, accepted, steps, after)
+    res = _assemble(ctx, config, sim, D, accepted, steps, after)
+    wanted = settings.candidates or tuple(LIBRARY)
+    missing = sorted(set(wanted) - {c.name for c in candidates})
+    res.summary["not_evaluated"] = [
+        {"effect": n, "reason": "the simulator exposes no tunable rig parameters" if n == "torsional_mode"
+         else "no candidate could be built"} for n in missing]
+    for n in missing:
+        res.summary["warnings"].append(f"{n} was not evaluated ({res.summary['not_evaluated'][missing.index(n)]['reason']})")
+    return res
 
 
 def _wrap_deg(psi: float, z1: int) -> float:
