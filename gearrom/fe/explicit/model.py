@@ -212,7 +212,7 @@ def _frozen_sets(sets: Mapping[str, np.ndarray]) -> Mapping[str, np.ndarray]:
     return MappingProxyType(out)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class ExplicitModel:
     """A complete explicit FE model.
 

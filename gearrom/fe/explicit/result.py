@@ -16,7 +16,7 @@ _ARRAYS = ("t", "energies", "theta", "omega", "torque_body", "ref_disp", "probe_
            "probe_v", "u_final", "v_final")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class ExplicitResult:
     """Histories of an explicit FE run (SI units).
 
