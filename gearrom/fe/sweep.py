@@ -171,15 +171,25 @@ class StiffnessResult:
 
 
 def build_ltca(pair, settings: MeshSettings | None = None, cache_dir: str | Path | None | bool = True,
-               window: float = 0.4e-3) -> SpurLTCA:
+               window: float = 0.4e-3, n_slices: int = 24) -> SpurLTCA:
     """Compliances of both gears (cached) and the LTCA object.
 
     ``cache_dir=True`` uses :func:`default_cache_dir`, ``None``/``False`` disables the cache.
+    Helical pairs get :class:`gearrom.fe.helical.HelicalSliceLTCA` (uncoupled transverse slices,
+    an approximation of the 3D model) with a warning.
     """
     if cache_dir is True:
         cache_dir = default_cache_dir()
     cache = cache_dir or None
     comps = tuple(cached_compliance(pair, i, settings, cache_dir=cache) for i in range(2))
+    if pair.is_helical:
+        import warnings
+
+        from gearrom.fe.helical import HelicalSliceLTCA
+
+        warnings.warn("helical pair: uncoupled transverse slices (plane-strain sections), not a 3D FE model; "
+                      "end effects and lead-modification sensitivity are over-estimated", stacklevel=2)
+        return HelicalSliceLTCA(pair, comps, window=window, n_slices=n_slices)
     return SpurLTCA(pair, comps, window=window)
 
 
@@ -208,19 +218,19 @@ def mesh_cycle(ltca: SpurLTCA, torques, n_positions: int = 64, mesh_index: int =
             pf[j, i] = r.pair_force
             kt[j, i] = (eps * r.force / (res[m + j].ste - r.ste)) if tangent else np.nan
     meta = {"n_positions": n, "solve_time_s": time.perf_counter() - t0, "mesh_index": mesh_index,
-            "compliance_info": [c.info for c in ltca.c]}
+            "compliance_info": [c.info for c in ltca.c], "model": type(ltca).__name__}
     meta.update(metadata or {})
+    definition = DEFINITION
+    if ltca.pair.is_helical:
+        definition = DEFINITION + f"; helical: {getattr(ltca, 'n_slices', 0)} uncoupled transverse slices"
     return StiffnessResult(z1=ltca.pair.z[0], theta=theta, torque=torques, ste=ste, ste_kinematic=kin, k_secant=ks,
-                           k_tangent=kt, pair_force=pf, pairs=ltca.pair_range.copy(), max_pressure=pmax, metadata=meta)
+                           k_tangent=kt, pair_force=pf, pairs=ltca.pair_range.copy(), max_pressure=pmax,
+                           definition=definition, metadata=meta)
 
 
 def stiffness_sweep(pair, torques, n_positions: int = 64, settings: MeshSettings | None = None,
                     cache_dir: str | Path | None | bool = True, **kw) -> StiffnessResult:
-    """:func:`build_ltca` + :func:`mesh_cycle` (spur pairs; the plane model of the transverse section)."""
-    if pair.is_helical:
-        from gearrom.errors import ModelError
-
-        raise ModelError("stiffness_sweep: helical pairs need the 3D model, which is not available yet")
+    """:func:`build_ltca` + :func:`mesh_cycle`."""
     return mesh_cycle(build_ltca(pair, settings, cache_dir), torques, n_positions, **kw)
 
 

@@ -45,8 +45,3 @@ def test_cli_stiffness_unknown_fe_key(tmp_path, capsys):
     cfg.write_text('extends = "thesis-spur"\n[fe]\nflank_sise_mm = 0.02\n')
     assert main(["stiffness", str(cfg), "--no-cache"]) == 2
     assert "fe.flank_sise_mm" in capsys.readouterr().err
-
-
-def test_cli_stiffness_helical_is_refused_clearly(capsys):
-    assert main(["stiffness", "thesis-helical", "--no-cache"]) == 2
-    assert "3D" in capsys.readouterr().err

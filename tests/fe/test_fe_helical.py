@@ -1,0 +1,83 @@
+"""Helical pair of the rig (thesis-helical) with the slice LTCA (transverse plane-strain slices).
+
+References: ISO 6336-1 method B c_gamma_alpha (anchor, about +-20 %; the ratio is printed);
+eps_beta = 2.02 nearly an integer, so the ideal stiffness fluctuation nearly cancels and the STE
+peak-to-peak is sub-micron (fe-method-notes; Smith, Gear Noise and Vibration, ch. 3); lead
+crowning shortens the contact lines (lower effective overlap: larger STE and larger ripple), tip relief removes tip-edge loading (lower peak pressure, larger mean STE)
+(Houser & Harianto, Gear Technology 1996). The block solver is checked against the dense one.
+"""
+from __future__ import annotations
+
+import dataclasses
+import warnings
+
+import numpy as np
+import pytest
+
+from gearrom.config import load_config
+from gearrom.fe.contact import solve_contact, solve_contact_blocks
+from gearrom.fe.helical import HelicalSliceLTCA, plot_contact_pattern
+from gearrom.fe.iso6336 import mesh_stiffness
+from gearrom.fe.mesh2d import MeshSettings
+from gearrom.fe.sweep import build_ltca, mesh_cycle
+
+COARSE = MeshSettings(flank_size=0.04e-3, tooth_size=0.45e-3, body_size=3e-3)
+
+
+@pytest.fixture(scope="module")
+def helical(tmp_path_factory):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        pair = load_config("thesis-helical").pair
+        ltca = build_ltca(pair, COARSE, cache_dir=tmp_path_factory.mktemp("h"), n_slices=16)
+    return pair, ltca, mesh_cycle(ltca, [120.0], 32, tangent=False)
+
+
+def _micro(pair, **kw):
+    gears = [dataclasses.replace(g, micro=dataclasses.replace(g.micro, enabled=True, **kw)) for g in pair.gears]
+    return dataclasses.replace(pair, gears=tuple(gears))
+
+
+def test_helical_mean_stiffness_vs_iso_and_submicron_ripple(helical):
+    pair, _, res = helical
+    ratio = res.k_secant[0].mean() / (mesh_stiffness(pair) * pair.face_width)
+    print(f"helical FE (slices) / ISO 6336 c_gamma_alpha = {ratio:.3f}; STE ptp {np.ptp(res.ste[0]) * 1e6:.3f} um")
+    assert 0.7 <= ratio <= 1.3
+    assert np.ptp(res.ste[0]) < 1e-6
+
+
+def test_helical_lead_crowning_and_tip_relief_directions(helical):
+    pair, ltca, base = helical
+    crowned = _micro(pair, tip_relief=0.0, profile_crowning=0.0, tip_form_diameter=None)  # drawing C_b = 4 um
+    relieved = _micro(pair, lead_crowning=0.0, profile_crowning=0.0, tip_form_diameter=None)  # drawing C_a
+    rc = mesh_cycle(HelicalSliceLTCA(crowned, ltca.c, n_slices=16), [120.0], 32, tangent=False)
+    rr = mesh_cycle(HelicalSliceLTCA(relieved, ltca.c, n_slices=16), [120.0], 32, tangent=False)
+    assert rc.ste[0].mean() > base.ste[0].mean()
+    assert np.ptp(rc.ste[0]) > np.ptp(base.ste[0])
+    assert rr.ste[0].mean() > base.ste[0].mean()
+    assert rr.max_pressure.max() < base.max_pressure.max()
+
+
+def test_contact_pattern_plot(helical):
+    pair, ltca, _ = helical
+    res = ltca.solve(0.0, 120.0)
+    assert res.z.shape == res.pressure.shape
+    assert len(plot_contact_pattern(res, pair).axes) == 2
+
+
+def test_block_solver_matches_dense():
+    rng = np.random.default_rng(1)
+    blocks, gaps = [], []
+    for n in (5, 8, 3):
+        A = rng.normal(size=(n, n))
+        blocks.append(A @ A.T * 1e-9 + np.eye(n) * 1e-9)
+        gaps.append(np.abs(rng.normal(size=n)) * 1e-6)
+    C = np.zeros((16, 16))
+    k = 0
+    for b in blocks:
+        C[k:k + b.shape[0], k:k + b.shape[0]] = b
+        k += b.shape[0]
+    ref = solve_contact(C, np.concatenate(gaps), 5000.0)
+    got = solve_contact_blocks(blocks, gaps, 5000.0)
+    np.testing.assert_allclose(got.f, ref.f, rtol=1e-8, atol=1e-9)
+    assert got.delta == pytest.approx(ref.delta, rel=1e-10)
