@@ -20,7 +20,32 @@ from gearrom.fe.mesh2d import Mesh2D
 log = logging.getLogger(__name__)
 
 
-class ElasticBody2D:
+class FacetIndex:
+    """Lookup of scikit-fem facet numbers from node pairs for a :class:`Mesh2D` (no assembly)."""
+
+    def __init__(self, mesh: Mesh2D) -> None:
+        from skfem import MeshTri
+
+        self.mesh = mesh
+        self.skmesh = MeshTri(np.ascontiguousarray(mesh.points.T), np.ascontiguousarray(mesh.triangles.T))
+        f = self.skmesh.facets
+        nv = mesh.points.shape[0]
+        keys = np.minimum(f[0], f[1]).astype(np.int64) * nv + np.maximum(f[0], f[1])
+        order = np.argsort(keys)
+        self._facet_keys, self._facet_order = keys[order], order
+
+    def facet_index(self, edges: np.ndarray) -> np.ndarray:
+        """skfem facet index of each node pair (q, 2)."""
+        nv = self.mesh.points.shape[0]
+        e = np.asarray(edges, dtype=np.int64)
+        keys = np.minimum(e[:, 0], e[:, 1]) * nv + np.maximum(e[:, 0], e[:, 1])
+        pos = np.clip(np.searchsorted(self._facet_keys, keys), 0, self._facet_keys.size - 1)
+        if np.any(self._facet_keys[pos] != keys):
+            raise MeshError("boundary edge not found among the mesh facets (curve and mesh do not match)")
+        return self._facet_order[pos]
+
+
+class ElasticBody2D(FacetIndex):
     """Plane-strain body (quadratic triangles) with the bore clamped through a rigid reference node.
 
     Parameters
@@ -34,15 +59,14 @@ class ElasticBody2D:
     """
 
     def __init__(self, mesh: Mesh2D, youngs_modulus: float, poisson_ratio: float, thickness: float) -> None:
-        from skfem import Basis, ElementTriP2, ElementVector, MeshTri, asm
+        from skfem import Basis, ElementTriP2, ElementVector, asm
         from skfem.models.elasticity import lame_parameters, linear_elasticity
 
         if mesh.bore_nodes.size < 3:
             raise MeshError("the mesh has fewer than 3 bore nodes: the rigid bore coupling needs the bore curve")
-        self.mesh = mesh
+        super().__init__(mesh)
         self.thickness = float(thickness)
         self.E, self.nu = float(youngs_modulus), float(poisson_ratio)
-        self.skmesh = MeshTri(np.ascontiguousarray(mesh.points.T), np.ascontiguousarray(mesh.triangles.T))
         self.basis = Basis(self.skmesh, ElementVector(ElementTriP2()), intorder=4)
         K = asm(linear_elasticity(*lame_parameters(self.E, self.nu)), self.basis) * self.thickness
         self.ndof = K.shape[0]
@@ -50,9 +74,6 @@ class ElasticBody2D:
         facet = self.basis.facet_dofs  # (2, nfacets)
         f = self.skmesh.facets
         nv = mesh.points.shape[0]
-        keys = np.minimum(f[0], f[1]).astype(np.int64) * nv + np.maximum(f[0], f[1])
-        order = np.argsort(keys)
-        self._facet_keys, self._facet_order = keys[order], order
         self._nodal, self._facet = nodal, facet
         on_bore = np.zeros(nv, bool)
         on_bore[mesh.bore_nodes] = True
@@ -71,17 +92,6 @@ class ElasticBody2D:
         log.info("elastic body: %d dofs, %d fixed (bore)", self.ndof, fixed.size)
 
     # ------------------------------------------------------------- lookup
-    def facet_index(self, edges: np.ndarray) -> np.ndarray:
-        """skfem facet index of each node pair (q, 2)."""
-        nv = self.mesh.points.shape[0]
-        e = np.asarray(edges, dtype=np.int64)
-        keys = np.minimum(e[:, 0], e[:, 1]) * nv + np.maximum(e[:, 0], e[:, 1])
-        pos = np.searchsorted(self._facet_keys, keys)
-        pos = np.clip(pos, 0, self._facet_keys.size - 1)
-        if np.any(self._facet_keys[pos] != keys):
-            raise MeshError("boundary edge not found among the mesh facets (curve and mesh do not match)")
-        return self._facet_order[pos]
-
     def outward_normals(self, edges: np.ndarray) -> np.ndarray:
         """Unit outward normals of boundary edges (q, 2)."""
         p = self.mesh.points

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from gearrom.fe.compliance import patch_operator
-from gearrom.fe.elastic import ElasticBody2D
+from gearrom.fe.elastic import ElasticBody2D, FacetIndex
 from gearrom.fe.fullcontact import placement
 from gearrom.fe.mesh2d import MeshSettings, gear_mesh
 
@@ -124,16 +124,9 @@ def export_inp(pair, theta: float, torque: float, path: str | Path, settings: Me
     for i in range(2):
         g = pair.gears[i]
         mesh = gear_mesh(pair, i, s)
-        body = ElasticBody2D.__new__(ElasticBody2D)  # only the facet lookup is needed, no factorisation
-        from skfem import MeshTri
-
-        body.mesh = mesh
-        body.skmesh = MeshTri(np.ascontiguousarray(mesh.points.T), np.ascontiguousarray(mesh.triangles.T))
+        body = FacetIndex(mesh)  # only the facet numbering is needed, no assembly
         f = body.skmesh.facets
         nv = mesh.points.shape[0]
-        keys = np.minimum(f[0], f[1]).astype(np.int64) * nv + np.maximum(f[0], f[1])
-        order = np.argsort(keys)
-        body._facet_keys, body._facet_order = keys[order], order
         R, O = frames[i]
         P = (mesh.points @ R.T + O) * 1e3
         M = 0.5 * (P[f[0]] + P[f[1]])

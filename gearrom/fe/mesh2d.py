@@ -14,6 +14,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import math
+import os
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -124,11 +125,9 @@ def gmsh_session(name: str):
     own = not gmsh.isInitialized()
     if own:
         gmsh.initialize(interruptible=False)
-    gmsh.option.setNumber("General.Terminal", 0)
-    gmsh.option.setNumber("General.Verbosity", 1)
-    import os
-    if os.environ.get("GEARROM_GMSH_VERBOSE"):
-        gmsh.option.setNumber("General.Terminal", 1); gmsh.option.setNumber("General.Verbosity", 5)
+    verbose = bool(os.environ.get("GEARROM_GMSH_VERBOSE"))  # debugging aid: gmsh's own log on stdout
+    gmsh.option.setNumber("General.Terminal", 1 if verbose else 0)
+    gmsh.option.setNumber("General.Verbosity", 5 if verbose else 1)
     gmsh.model.add(name)
     try:
         yield gmsh
