@@ -48,10 +48,19 @@ class HelicalSliceLTCA(SpurLTCA):
         self.z = (np.arange(n_slices) + 0.5) * self.dz - 0.5 * b
         self.shift = self.z * math.tan(pair.beta_b) / pair.rb[0]  # input angle shift per slice [rad]
         self.cosb = math.cos(pair.beta_b)
-        # compliance of a slice of thickness dz: the plane model's (thickness b_i) times b_i / dz
-        self.c = tuple(dataclasses.replace(c, G=c.G * (c.face_width / self.dz)) for c in self.c)
+        # compliance of a slice of thickness dz: the plane model's (thickness b_i) times b_i / dz;
+        # ``self.c`` keeps the plane compliances (reusable for a new micro-geometry)
+        self._slice_c = tuple(dataclasses.replace(c, G=c.G * (c.face_width / self.dz)) for c in self.c)
         npairs = int(math.ceil(pair.eps_alpha + pair.eps_beta)) + 2
         self.pair_range = np.arange(-npairs, npairs + 1)
+
+    def compliance_matrix(self, cands) -> np.ndarray:
+        """Compliance [m/N] between the candidates of one slice."""
+        plane, self.c = self.c, self._slice_c
+        try:
+            return super().compliance_matrix(cands)
+        finally:
+            self.c = plane
 
     def _lead_removal(self, z: float) -> float:
         out = 0.0

@@ -3,8 +3,10 @@
 References: ISO 6336-1 method B c_gamma_alpha (anchor, about +-20 %; the ratio is printed);
 eps_beta = 2.02 nearly an integer, so the ideal stiffness fluctuation nearly cancels and the STE
 peak-to-peak is sub-micron (fe-method-notes; Smith, Gear Noise and Vibration, ch. 3); lead
-crowning shortens the contact lines (lower effective overlap: larger STE and larger ripple), tip relief removes tip-edge loading (lower peak pressure, larger mean STE)
-(Houser & Harianto, Gear Technology 1996). The block solver is checked against the dense one.
+crowning and tip relief remove material and shorten the loaded contact lines (larger mean STE,
+lower secant stiffness; crowning raises the mid-face Hertz pressure), and the drawing
+modifications break the near-integer-overlap cancellation so that the ripple grows (Smith 2003,
+ch. 3). The block contact solver is checked against the dense one.
 """
 from __future__ import annotations
 
@@ -50,12 +52,18 @@ def test_helical_lead_crowning_and_tip_relief_directions(helical):
     pair, ltca, base = helical
     crowned = _micro(pair, tip_relief=0.0, profile_crowning=0.0, tip_form_diameter=None)  # drawing C_b = 4 um
     relieved = _micro(pair, lead_crowning=0.0, profile_crowning=0.0, tip_form_diameter=None)  # drawing C_a
-    rc = mesh_cycle(HelicalSliceLTCA(crowned, ltca.c, n_slices=16), [120.0], 32, tangent=False)
-    rr = mesh_cycle(HelicalSliceLTCA(relieved, ltca.c, n_slices=16), [120.0], 32, tangent=False)
-    assert rc.ste[0].mean() > base.ste[0].mean()
-    assert np.ptp(rc.ste[0]) > np.ptp(base.ste[0])
-    assert rr.ste[0].mean() > base.ste[0].mean()
-    assert rr.max_pressure.max() < base.max_pressure.max()
+    drawing = _micro(pair)
+    rc, rr, rd = (mesh_cycle(HelicalSliceLTCA(p, ltca.c, n_slices=16), [120.0], 32, tangent=False)
+                  for p in (crowned, relieved, drawing))
+    # removed material: larger STE and a lower secant stiffness (shorter effective contact lines)
+    for r in (rc, rr, rd):
+        assert r.ste[0].mean() > base.ste[0].mean()
+        assert r.k_secant[0].mean() < base.k_secant[0].mean()
+    # crowning concentrates the load in mid-face: higher peak (Hertz) pressure
+    assert rc.max_pressure.max() > 1.1 * base.max_pressure.max()
+    # the drawing modifications break the near-integer-overlap cancellation: larger ripple, still sub-micron
+    assert np.ptp(base.ste[0]) < np.ptp(rd.ste[0]) < 1e-6
+    assert np.ptp(rd.ste_kinematic) > 0.1e-6
 
 
 def test_contact_pattern_plot(helical):
