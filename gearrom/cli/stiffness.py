@@ -24,7 +24,7 @@ def add_args(parser) -> None:
     parser.add_argument("--save", type=Path, metavar="NC", help="write the MeshExcitation table (NetCDF)")
     parser.add_argument("--mesh-factor", type=float, default=1.0, help="scale all mesh sizes (refinement studies)")
     parser.add_argument("--no-cache", action="store_true", help="do not read or write the FE cache")
-    parser.add_argument("--cache-dir", type=Path, help="FE cache directory (default $GEARROM_CACHE or ~/.cache/gearrom/fe)")
+    parser.add_argument("--cache-dir", type=Path, help="FE cache directory (default $GEARROM_CACHE_DIR/fe or ~/.cache/gearrom/fe)")
 
 
 def run(args) -> int:

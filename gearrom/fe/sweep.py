@@ -34,9 +34,9 @@ DEFINITION = ("secant k = F_t / (STE - STE_kinematic) per position; F_t = torque
 
 
 def default_cache_dir() -> Path:
-    """``$GEARROM_CACHE`` or ``~/.cache/gearrom/fe``."""
-    env = os.environ.get("GEARROM_CACHE")
-    return Path(env) if env else Path.home() / ".cache" / "gearrom" / "fe"
+    """``$GEARROM_CACHE_DIR/fe`` (the CI sets it), else ``~/.cache/gearrom/fe``."""
+    env = os.environ.get("GEARROM_CACHE_DIR")
+    return (Path(env) if env else Path.home() / ".cache" / "gearrom") / "fe"
 
 
 @dataclass(frozen=True, eq=False)
