@@ -22,6 +22,8 @@ def add_args(parser) -> None:
     parser.add_argument("--json", type=Path, metavar="OUT", help="write the results as JSON")
     parser.add_argument("--plot", type=Path, metavar="PNG", help="plot STE, stiffness, load share, pressure")
     parser.add_argument("--save", type=Path, metavar="NC", help="write the MeshExcitation table (NetCDF)")
+    parser.add_argument("--vtu", type=Path, metavar="VTU", help="write the loaded state at theta = 0 (first torque) for ParaView")
+    parser.add_argument("--inp", type=Path, metavar="INP", help="write the Abaqus/CalculiX deck at theta = 0 (first torque)")
     parser.add_argument("--mesh-factor", type=float, default=1.0, help="scale all mesh sizes (refinement studies)")
     parser.add_argument("--no-cache", action="store_true", help="do not read or write the FE cache")
     parser.add_argument("--cache-dir", type=Path, help="FE cache directory (default $GEARROM_CACHE_DIR/fe or ~/.cache/gearrom/fe)")
@@ -47,8 +49,8 @@ def run(args) -> int:
     if cfg.pair.is_helical:
         log.warning("%s: helical pair solved with uncoupled transverse slices (not a 3D FE model)", cfg.name)
     cache = False if args.no_cache else (args.cache_dir or True)
-    res = mesh_cycle(build_ltca(cfg.pair, settings, cache), torques, n, metadata={"config": cfg.name,
-                                                                                  "config_digest": cfg.digest()})
+    ltca = build_ltca(cfg.pair, settings, cache)
+    res = mesh_cycle(ltca, torques, n, metadata={"config": cfg.name, "config_digest": cfg.digest()})
     iso = mesh_stiffness(cfg.pair) * cfg.pair.face_width
     j0 = int(abs(res.torque - float(torques[0])).argmin())  # the first torque given leads the JSON
     out = res.summary(j0)
@@ -72,4 +74,11 @@ def run(args) -> int:
         res.plot().savefig(args.plot, dpi=120)
     if args.save:
         res.to_excitation().save(args.save)
+    if args.vtu or args.inp:
+        from gearrom.fe.export import export_inp, export_vtu
+
+        if args.vtu:
+            export_vtu(ltca, 0.0, float(torques[0]), args.vtu, settings)
+        if args.inp:
+            export_inp(cfg.pair, 0.0, float(torques[0]), args.inp, settings)
     return 0

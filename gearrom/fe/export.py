@@ -11,6 +11,7 @@
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -41,6 +42,10 @@ def export_vtu(ltca, theta: float, torque: float, path: str | Path, settings: Me
     import meshio
 
     pair = ltca.pair
+    if pair.is_helical:
+        from gearrom.errors import ModelError
+
+        raise ModelError("export_vtu: only the plane (spur) model can be exported; the helical slice model has no single mesh")
     res = ltca.solve(theta, torque)
     cands = ltca.candidates(theta)
     pts_all, cells, disp, pres, vm, gear_id = [], [], [], [], [], []
@@ -115,7 +120,13 @@ def export_inp(pair, theta: float, torque: float, path: str | Path, settings: Me
     closes, which CalculiX's static contact needs); the printed RF of the ROT node is then the
     transmitted moment.
     """
+    if pair.is_helical:
+        from gearrom.errors import ModelError
+
+        raise ModelError("export_inp: only spur pairs can be written as a deck (the helical model is a slice approximation)")
     s = settings or MeshSettings(refined_teeth=1)
+    if s.refined_teeth < 1:
+        s = dataclasses.replace(s, refined_teeth=1)
     frames = _frames(pair, theta)
     lines = ["*HEADING", f"gearrom spur pair, theta = {theta:.9g} rad, output torque = {torque:.9g} N m (mm, N, MPa)"]
     node_lines, elem_lines, sets = [], [], {}

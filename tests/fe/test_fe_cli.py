@@ -18,7 +18,7 @@ def test_cli_stiffness_json_plot_table(tmp_path, capsys):
     out = tmp_path / "s.json"
     rc = main(["stiffness", "thesis-spur", "--torque-Nm", "120", "--positions", "16", "--mesh-factor", "1.6",
                "--json", str(out), "--plot", str(tmp_path / "s.png"), "--save", str(tmp_path / "s.nc"),
-               "--cache-dir", str(tmp_path / "cache")])
+               "--cache-dir", str(tmp_path / "cache"), "--vtu", str(tmp_path / "s.vtu"), "--inp", str(tmp_path / "s.inp")])
     assert rc == 0
     d = json.loads(out.read_text())
     assert KEYS <= set(d)
@@ -29,6 +29,7 @@ def test_cli_stiffness_json_plot_table(tmp_path, capsys):
 
     assert MeshExcitation.load(tmp_path / "s.nc").n_theta == 16
     assert "mean k" in capsys.readouterr().out
+    assert (tmp_path / "s.vtu").stat().st_size > 0 and "*CONTACT PAIR" in (tmp_path / "s.inp").read_text()
 
 
 @pytest.mark.parametrize("argv, msg", [
