@@ -33,11 +33,14 @@ def _with_micro(pair, i, **kw):
     return dataclasses.replace(pair, gears=tuple(gears))
 
 
-def test_runout_gives_once_per_rev_te(spur_ltca):
-    pair = _with_micro(spur_ltca.pair, 0, runout=20e-6)
-    angle, te = kinematic_te(SpurLTCA(pair, spur_ltca.c), n_per_cycle=8)
+@pytest.mark.parametrize("gear", [0, 1])
+def test_runout_gives_once_per_rev_te(spur_ltca, gear):
+    pair = _with_micro(spur_ltca.pair, gear, runout=20e-6)
+    z = pair.z[gear]
+    # one revolution of the gear with the runout
+    angle, te = kinematic_te(SpurLTCA(pair, spur_ltca.c), n_cycles=z, n_per_cycle=8)
     assert np.ptp(te) == pytest.approx(20e-6, rel=0.02)
-    # once per revolution: the first harmonic of the revolution carries the signal
+    # once per revolution of that gear: the first harmonic carries the signal
     spec = np.abs(np.fft.rfft(te - te.mean()))
     assert np.argmax(spec) == 1
 
