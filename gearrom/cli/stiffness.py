@@ -46,8 +46,6 @@ def run(args) -> int:
     n = args.positions or int(extra.get("positions", 64))
     if n < 4:
         raise ConfigError(f"--positions must be >= 4, got {n}")
-    if cfg.pair.is_helical:
-        log.warning("%s: helical pair solved with uncoupled transverse slices (not a 3D FE model)", cfg.name)
     cache = False if args.no_cache else (args.cache_dir or True)
     ltca = build_ltca(cfg.pair, settings, cache)
     res = mesh_cycle(ltca, torques, n, metadata={"config": cfg.name, "config_digest": cfg.digest()})
