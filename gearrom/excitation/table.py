@@ -56,6 +56,14 @@ def netcdf_engine() -> str:
         return "netcdf4"
 
 
+def write_netcdf(dataset, path: str | Path) -> Path:
+    """Write an xarray ``dataset`` to ``path`` (parents created) with :func:`netcdf_engine`."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    dataset.to_netcdf(path, engine=netcdf_engine())
+    return path
+
+
 @dataclass(frozen=True)
 class Harmonics:
     """Mesh-order harmonics at one torque.
@@ -250,10 +258,7 @@ class MeshExcitation:
 
     def save(self, path: str | Path) -> Path:
         """Write the table to NetCDF (h5netcdf engine, netcdf4 when h5py is missing). Returns the path."""
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        self.to_dataset().to_netcdf(path, engine=netcdf_engine())
-        return path
+        return write_netcdf(self.to_dataset(), path)
 
     @classmethod
     def load(cls, path: str | Path) -> "MeshExcitation":

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from gearrom.errors import ModelError
-from gearrom.excitation.table import netcdf_engine
+from gearrom.excitation.table import netcdf_engine, write_netcdf
 
 
 @dataclass(eq=False)
@@ -133,10 +133,7 @@ class DynamicRun:
 
     def save(self, path: str | Path) -> Path:
         """Write to NetCDF."""
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        self.to_dataset().to_netcdf(path, engine=netcdf_engine())
-        return path
+        return write_netcdf(self.to_dataset(), path)
 
     @classmethod
     def load(cls, path: str | Path) -> "DynamicRun":

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from gearrom.errors import ConfigError, ModelError
-from gearrom.excitation.table import netcdf_engine
+from gearrom.excitation.table import netcdf_engine, write_netcdf
 
 log = logging.getLogger(__name__)
 CHANNELS = ("dte_sensor", "dte_clutch", "delta", "force", "ste")
@@ -158,10 +158,7 @@ class SweepResult:
         return ds
 
     def save(self, path: str | Path) -> Path:
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        self.to_dataset().to_netcdf(path, engine=netcdf_engine())
-        return path
+        return write_netcdf(self.to_dataset(), path)
 
     @classmethod
     def load(cls, path: str | Path) -> "SweepResult":
