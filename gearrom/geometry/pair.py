@@ -7,7 +7,6 @@ comments refer to the seed thesis (eqs. 5-36) where it uses the same ones.
 from __future__ import annotations
 
 import math
-import warnings
 from dataclasses import dataclass
 from functools import cached_property
 
