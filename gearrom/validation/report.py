@@ -1,0 +1,210 @@
+"""ROM vs explicit FE at given input speeds: stored FE records, the matching pair ROM, the report.
+
+Stored FE records (written by ``validation/run_explicit_spur.py``): ``spur_<rpm>rpm.npz`` with
+``t_s``, ``te_m``, ``theta_rad`` (rotation of the two rigid bore references, rad) and
+``spur_<rpm>rpm.json`` with at least ``t_steady_from_s``, ``torque_out_Nm``, ``ramp_s``,
+``outline_size_mm``, ``body_size_mm``, ``wall_s``, ``t_end_s``.
+"""
+from __future__ import annotations
+
+import json
+import logging
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from gearrom.errors import ConfigError, MeasurementError
+from gearrom.validation.compare import TOLERANCES, compare_metrics, steady_window, te_metrics
+from gearrom.validation.pair_rom import PairRomSetup, mesh_excitation, polar_inertia, simulate_pair_rom
+
+log = logging.getLogger(__name__)
+
+__all__ = ["FERecord", "ValidationReport", "load_fe_record", "output_inertia", "validate_speed", "validate"]
+
+DEFAULT_FE_DIR = Path(__file__).resolve().parents[2] / "validation"
+
+
+@dataclass(frozen=True, eq=False)
+class FERecord:
+    """One explicit FE run: time [s], input angle from the start [rad], TE [m] and its metadata."""
+
+    t: np.ndarray
+    theta_in: np.ndarray
+    te: np.ndarray
+    meta: dict
+    source: str = "stored"
+
+
+def load_fe_record(fe_dir: str | Path, rpm: float, prefix: str = "spur") -> FERecord:
+    """Load ``<fe_dir>/<prefix>_<rpm>rpm.npz/.json``; MeasurementError naming a missing/broken file."""
+    stem = Path(fe_dir) / f"{prefix}_{int(round(rpm))}rpm"
+    npz, js = stem.with_suffix(".npz"), stem.with_suffix(".json")
+    for p in (npz, js):
+        if not p.is_file():
+            raise MeasurementError(f"stored explicit FE result {p} is missing (run validation/run_explicit_spur.py "
+                                   f"{int(round(rpm))} or use --fresh)")
+    meta = json.loads(js.read_text())
+    with np.load(npz) as d:
+        for key in ("t_s", "te_m", "theta_rad"):
+            if key not in d:
+                raise MeasurementError(f"{npz}: array {key!r} missing")
+        t, te, th = d["t_s"], d["te_m"], d["theta_rad"]
+    for key in ("t_steady_from_s", "torque_out_Nm"):
+        if key not in meta:
+            raise MeasurementError(f"{js}: key {key!r} missing")
+    return FERecord(t=t, theta_in=th[:, 0] - th[0, 0], te=te, meta=meta, source="stored")
+
+
+def output_inertia(pair, outline_size: float, body_size: float) -> tuple[float, str]:
+    """Polar inertia of the output gear from the explicit FE's own mesh (same sizes), and a label."""
+    from gearrom.fe.explicit.gearmesh import gear_quad_mesh
+
+    nodes, quads, _ = gear_quad_mesh(pair, 1, outline_size, body_size)
+    g = pair.gears[1]
+    j = polar_inertia(nodes, quads, (0.0, 0.0), g.material.density, min(pair.gears[0].face_width, g.face_width))
+    return j, f"rho b int r^2 dA over the FE output-gear quad mesh ({outline_size * 1e3:g}/{body_size * 1e3:g} mm)"
+
+
+def fresh_fe_record(pair, rpm: float, torque: float, outline: float = 0.3e-3, body: float = 2e-3,
+                    ramp: float = 0.3e-3, settle_periods: int = 1, periods: int = 3) -> FERecord:
+    """Run a coarse explicit FE of the pair now (minutes): same set-up as the stored runs, coarser mesh."""
+    import time
+
+    from gearrom.fe.explicit.gearmesh import gear_quad_mesh
+    from gearrom.fe.explicit.gearpair import GearPairSetup, run_gear_pair
+
+    meshes = [gear_quad_mesh(pair, i, outline, body) for i in (0, 1)]
+    f_mesh = rpm / 60 * pair.z[0]
+    t_end = ramp + (settle_periods + periods) / f_mesh
+    setup = GearPairSetup(rpm_in=rpm, torque_out=torque, torque_ramp_time=ramp, mu=0.0)
+    t0 = time.perf_counter()
+    res, te, _ = run_gear_pair(pair, meshes, setup, t_end=t_end, sample_period=1.0 / (f_mesh * 128))
+    meta = {"t_steady_from_s": ramp + settle_periods / f_mesh, "torque_out_Nm": torque, "ramp_s": ramp,
+            "outline_size_mm": outline * 1e3, "body_size_mm": body * 1e3, "t_end_s": t_end,
+            "wall_s": time.perf_counter() - t0, "dt_s": res.meta.get("dt_s"), "mu": 0.0,
+            "hourglass_ratio": res.hourglass_ratio}
+    return FERecord(t=res.t, theta_in=res.theta[:, 0] - res.theta[0, 0], te=te, meta=meta, source="fresh")
+
+
+@dataclass(frozen=True, eq=False)
+class SpeedComparison:
+    """ROM and FE records at one speed, their metrics and the verdict."""
+
+    rpm_in: float
+    fe: FERecord
+    rom_t: np.ndarray
+    rom_theta_in: np.ndarray
+    rom_te: np.ndarray
+    rom_meta: dict
+    metrics: dict
+    passed: bool
+    misses: list
+    fe_window: np.ndarray
+    rom_window: np.ndarray
+
+    def to_dict(self) -> dict:
+        return {"rpm_in": self.rpm_in, "fe_source": self.fe.source, "metrics": self.metrics, "passed": self.passed,
+                "misses": self.misses, "tolerances": TOLERANCES,
+                "fe": {k: self.fe.meta.get(k) for k in ("outline_size_mm", "body_size_mm", "dt_s", "n_elements",
+                                                        "wall_s", "t_end_s", "hourglass_ratio", "mu")},
+                "rom": {k: v for k, v in self.rom_meta.items() if k != "excitation_definition"}}
+
+
+def validate_speed(pair, rpm: float, fe: FERecord, excitation, excitation_label: str, inertia_out: float,
+                   inertia_label: str, damping_ratio: float = 0.01) -> SpeedComparison:
+    """Run the pair ROM for the FE record's set-up and compare both on the FE's steady window."""
+    z1 = pair.z[0]
+    f_mesh = rpm / 60 * z1
+    torque = float(fe.meta["torque_out_Nm"])
+    ramp = float(fe.meta.get("ramp_s", 0.3e-3))
+    setup = PairRomSetup(rpm_in=rpm, torque_out=torque, torque_ramp_time=ramp, inertia_out=inertia_out,
+                         damping_ratio=damping_ratio)
+    rom = simulate_pair_rom(pair, excitation, setup, t_end=float(fe.t[-1]), sample_period=1.0 / (f_mesh * 128))
+    t_from = float(fe.meta["t_steady_from_s"])
+    wf = steady_window(fe.theta_in, fe.t, t_from, z1)
+    wr = steady_window(rom.theta_in, rom.t, t_from, z1)
+    m_fe = te_metrics(fe.theta_in[wf], fe.te[wf], z1)
+    m_rom = te_metrics(rom.theta_in[wr], rom.te[wr], z1)
+    metrics, passed, misses = compare_metrics(m_rom, m_fe)
+    meta = dict(rom.meta, excitation=excitation_label, inertia_source=inertia_label, mesh_periods=m_rom["mesh_periods"])
+    return SpeedComparison(rpm, fe, rom.t, rom.theta_in, rom.te, meta, metrics, passed, misses, wf, wr)
+
+
+@dataclass(frozen=True, eq=False)
+class ValidationReport:
+    """ROM vs explicit FE at several speeds (``speeds``: list of :class:`SpeedComparison`)."""
+
+    config: str
+    speeds: list = field(default_factory=list)
+
+    def to_dict(self) -> dict:
+        return {"config": self.config, "speeds": [s.to_dict() for s in self.speeds],
+                "passed": all(s.passed for s in self.speeds)}
+
+    def save(self, path: str | Path) -> Path:
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps(self.to_dict(), indent=2, default=float) + "\n")
+        return path
+
+    def plot(self):
+        """TE vs input angle (steady window, in mesh periods) and the TE spectra over mesh order."""
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        n = len(self.speeds)
+        fig, axes = plt.subplots(n, 2, figsize=(11, 3.2 * n), squeeze=False)
+        for row, s in zip(axes, self.speeds):
+            z1 = s.rom_meta.get("z1") or int(round(2 * math.pi * s.rom_meta["mesh_frequency_Hz"] / (s.rpm_in * 2 * math.pi / 60)))
+            for lab, th, te, w, st in (("explicit FE", s.fe.theta_in, s.fe.te, s.fe_window, "k-"),
+                                       ("pair ROM", s.rom_theta_in, s.rom_te, s.rom_window, "C1--")):
+                x = th[w] * z1 / (2 * math.pi)
+                row[0].plot(x, te[w] * 1e6, st, lw=1, label=lab)
+                d = te[w] - te[w].mean()
+                spec = 2 * np.abs(np.fft.rfft(d)) / d.size * 1e6
+                order = np.arange(spec.size) / (x[-1] - x[0] + (x[1] - x[0]))
+                row[1].plot(order, spec, st, lw=1, label=lab, marker="o" if lab.startswith("pair") else ".", ms=3)
+            row[0].set(xlabel="input angle [mesh periods]", ylabel="TE [um]",
+                       title=f"{s.rpm_in:g} rpm ({'pass' if s.passed else 'FAIL'})")
+            row[1].set(xlabel="mesh order", ylabel="DTE amplitude [um]", xlim=(0, 6))
+            row[0].legend(fontsize=8)
+            row[1].legend(fontsize=8)
+        fig.suptitle(f"{self.config}: pair ROM vs explicit FE")
+        fig.tight_layout()
+        return fig
+
+
+def validate(config: str, rpms, fe_dir: str | Path | None = None, fresh: bool = False,
+             excitation_source: str = "fe", damping_ratio: float = 0.01) -> ValidationReport:
+    """Compare the pair ROM with the explicit FE of ``config`` at each input speed in ``rpms``."""
+    from gearrom.config import load_config
+
+    cfg = load_config(config)
+    pair = cfg.pair
+    if pair.is_helical:
+        raise ConfigError(f"{cfg.name}: the ROM-vs-explicit-FE validation covers spur pairs only (no stored helical runs)")
+    fe_dir = Path(fe_dir) if fe_dir is not None else DEFAULT_FE_DIR
+    records = {}
+    for rpm in rpms:
+        if not rpm > 0:
+            raise ConfigError(f"--rpm values must be > 0, got {rpm}")
+        records[rpm] = fresh_fe_record(pair, rpm, cfg.operating.torque_out) if fresh else load_fe_record(fe_dir, rpm)
+    speeds = []
+    cache: dict = {}
+    for rpm, fe in records.items():
+        torque = float(fe.meta["torque_out_Nm"])
+        if torque not in cache:
+            cache[torque] = mesh_excitation(pair, torque, excitation_source, config_name=cfg.name)
+        ex, ex_label = cache[torque]
+        key = (fe.meta.get("outline_size_mm", 0.15), fe.meta.get("body_size_mm", 1.5))
+        if key not in cache:
+            cache[key] = output_inertia(pair, key[0] * 1e-3, key[1] * 1e-3)
+        j2, j_label = cache[key]
+        s = validate_speed(pair, rpm, fe, ex, ex_label, j2, j_label, damping_ratio)
+        s.rom_meta["z1"] = pair.z[0]
+        speeds.append(s)
+    return ValidationReport(cfg.name, speeds)
