@@ -118,11 +118,12 @@ def patch_operator(body: ElasticBody2D, edges: np.ndarray, node_coord: np.ndarra
     return body.edge_operator(edges[e], xi, -normals, np.full(col.size, 1.0 / nq), col, sigma.size)
 
 
-def flank_grid(pair, i: int, spacing: float, form_radius: float) -> np.ndarray:
-    """Grid of involute arc lengths [m] from just above the form circle to just below the tip."""
+def flank_grid(pair, i: int, spacing: float, form_radius: float, L_end: float | None = None) -> np.ndarray:
+    """Grid of involute arc lengths [m] from just above the form circle to the end of the involute
+    (``L_end``, the roll length where a tip edge rounding starts; default the tip circle)."""
     rb = pair.rb[i]
     L_lo = math.sqrt(max(form_radius**2 - rb**2, 0.0))
-    L_hi = math.sqrt((0.5 * pair.da[i]) ** 2 - rb**2)
+    L_hi = math.sqrt((0.5 * pair.da[i]) ** 2 - rb**2) if L_end is None else L_end
     s_lo, s_hi = L_lo**2 / (2 * rb), L_hi**2 / (2 * rb)
     n = int(math.floor((s_hi - s_lo) / spacing - 1e-9))
     if n < 4:
@@ -163,8 +164,9 @@ def compute_compliance(pair, i: int, settings: MeshSettings | None = None, spaci
     body = ElasticBody2D(mesh, g.material.youngs_modulus, g.material.poisson_ratio, g.face_width)
     t2 = time.perf_counter()
     rb = pair.rb[i]
-    form_radius = tooth_profile(pair, i).form_radius
-    sigma = flank_grid(pair, i, spacing, form_radius * (1 + 1e-6))
+    prof = tooth_profile(pair, i)
+    L_end = float(np.nanmax(prof.roll))  # end of the involute (below a tip edge rounding, if any)
+    sigma = flank_grid(pair, i, spacing, prof.form_radius * (1 + 1e-6), L_end * (1 - 1e-9))
     pts = mesh.points
     radius = np.hypot(pts[:, 0], pts[:, 1])
 
@@ -209,6 +211,7 @@ def gear_key(pair, i: int, settings: MeshSettings, spacing: float, offsets: int)
         "code": CODE_VERSION, "mn": pair.mn, "alpha_n": pair.alpha_n, "beta": pair.beta, "z": g.z, "x": g.x,
         "da": pair.da[i], "df": pair.df[i], "dff": pair.dff[i], "tool": [pair.tool_addendum[i], pair.tool_tip_radius[i],
         g.tool.protuberance, g.tool.protuberance_angle], "b": g.face_width, "bore": g.bore_diameter,
+        "tip_edge_radius": getattr(g, "tip_edge_radius", None),
         "E": g.material.youngs_modulus, "nu": g.material.poisson_ratio, "mesh": asdict(settings),
         "spacing": spacing, "offsets": offsets,
     }

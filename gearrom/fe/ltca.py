@@ -109,7 +109,10 @@ class SpurLTCA:
         self.T = pair.aw * math.sin(pair.alpha_wt)
         self.L1_start = pair.roll_start_active[0]
         self.pb = pair.pb_t
-        self.L_tip = (tip_limit(pair, 0), tip_limit(pair, 1))
+        # contact ends at the effective tip or where the involute ends (a tip edge rounding starts);
+        # contact on the rounding itself is not modelled
+        self.L_tip = tuple(min(tip_limit(pair, i), math.sqrt(2 * c.rb * (c.sigma[-1] + 0.5 * c.spacing)))
+                           for i, c in enumerate((c1, c2)))
         n_pairs = int(math.ceil(pair.eps_alpha)) + 1
         self.pair_range = np.arange(-1, n_pairs)
 
