@@ -32,7 +32,7 @@ from gearrom.fe.mesh2d import MeshSettings, gear_mesh
 
 log = logging.getLogger(__name__)
 
-CODE_VERSION = "compliance-2d-v1"
+CODE_VERSION = "compliance-2d-v2"
 
 
 @dataclass(frozen=True, eq=False)
