@@ -9,7 +9,8 @@ from pathlib import Path
 from gearrom.errors import ConfigError
 
 NAME = "validate"
-HELP = "compare the reduced model with the stored (or freshly run) explicit FE: DTE RMS, GMF 1-3 amplitude/phase"
+HELP = ("compare the reduced model with the stored (or freshly run) explicit FE: DTE RMS, GMF 1-3 amplitude/phase "
+        "(exit 1 if a speed misses the tolerances)")
 
 log = logging.getLogger(__name__)
 
@@ -54,4 +55,4 @@ def run(args) -> int:
     if not args.json:
         lines.append(json.dumps(out, default=float))
     sys.stdout.write("\n".join(lines) + "\n")
-    return 0
+    return 0 if out["passed"] else 1

@@ -1,0 +1,107 @@
+"""The pair ROM against the committed explicit FE reference runs (validation/spur_<rpm>rpm.*).
+
+Reference: the long explicit FE runs of validation/run_explicit_spur.py (0.15 mm outline Q4 mesh,
+120 Nm, mu = 0, 10 recorded mesh periods), an independent second method (full transient FE with
+penalty contact vs a 1-DOF model on the quasi-static LTCA mesh table). Tolerances are issue 5's
+(gearrom.validation.compare.TOLERANCES), never loosened: a speed that misses them is an xfail that
+states the measured miss (strict, so that a fix is noticed). Skipped while the reference files are
+not committed. Also the CLI: JSON structure of the issue and the error for a missing stored result.
+"""
+from __future__ import annotations
+
+import json
+import math
+
+import pytest
+
+from gearrom.validation.report import DEFAULT_FE_DIR
+
+RPMS = (1250, 2000)
+MISSES: dict[int, str] = {}     # rpm -> measured miss (filled in from the committed references)
+
+
+def _have(rpm: int) -> bool:
+    return all((DEFAULT_FE_DIR / f"spur_{rpm}rpm{ext}").is_file() for ext in (".npz", ".json"))
+
+
+@pytest.fixture(scope="module")
+def report():
+    from gearrom.validation.report import validate
+
+    rpms = [r for r in RPMS if _have(r)]
+    if not rpms:
+        pytest.skip(f"no committed explicit FE reference in {DEFAULT_FE_DIR}")
+    return validate("thesis-spur", rpms)
+
+
+def test_report_structure_and_finite(report, tmp_path):
+    d = json.loads(report.save(tmp_path / "v.json").read_text())
+    assert d["config"] == "thesis-spur"
+    for s in d["speeds"]:
+        assert s["fe_source"] == "stored" and isinstance(s["passed"], bool)
+        for key in ("dte_rms_um", "gmf1_amplitude_um", "gmf2_amplitude_um", "gmf3_amplitude_um"):
+            m = s["metrics"][key]
+            assert all(math.isfinite(m[k]) for k in ("rom", "fe", "rel_error"))
+        ph = s["metrics"]["gmf1_phase_deg"]
+        assert all(math.isfinite(ph[k]) for k in ("rom", "fe", "error_deg"))
+        assert s["rom"]["mesh_periods"] >= 10
+        assert s["passed"] == (not s["misses"])
+
+
+def _params():
+    out = []
+    for rpm in RPMS:
+        marks = [pytest.mark.xfail(strict=True, reason=MISSES[rpm])] if rpm in MISSES else []
+        out.append(pytest.param(rpm, marks=marks))
+    return out
+
+
+@pytest.mark.parametrize("rpm", _params())
+def test_rom_within_issue_tolerances(report, rpm):
+    speeds = {int(s.rpm_in): s for s in report.speeds}
+    if rpm not in speeds:
+        pytest.skip(f"no committed reference at {rpm} rpm")
+    s = speeds[rpm]
+    assert s.passed, "; ".join(s.misses)
+
+
+def test_cli_missing_reference_names_file(tmp_path, capsys):
+    from gearrom.cli import main
+
+    rc = main(["validate", "thesis-spur", "--rpm", "1250", "--fe-dir", str(tmp_path)])
+    assert rc == 2
+    assert "spur_1250rpm.npz" in capsys.readouterr().err
+
+
+def test_cli_end_to_end_against_itself(tmp_path, spur, capsys):
+    """Plumbing: a stored 'FE' record that is the pair ROM's own output must give zero errors and pass."""
+    import numpy as np
+
+    from gearrom.cli import main
+    from gearrom.excitation.analytical import analytical_excitation
+    from gearrom.validation import PairRomSetup, simulate_pair_rom
+    from gearrom.validation.report import output_inertia
+
+    pair = spur.pair
+    rpm, ramp = 2000.0, 0.3e-3
+    f_mesh = rpm / 60 * pair.z[0]
+    j2, _ = output_inertia(pair, 0.3e-3, 2e-3)
+    ex = analytical_excitation(pair, [120.0], config_name="thesis-spur")
+    r = simulate_pair_rom(pair, ex, PairRomSetup(rpm_in=rpm, torque_ramp_time=ramp, inertia_out=j2),
+                          t_end=ramp + 11 / f_mesh, sample_period=1 / (f_mesh * 128))
+    theta = np.column_stack([r.theta_in, -(pair.rb[0] * r.theta_in - r.te) / pair.rb[1]])
+    np.savez(tmp_path / "spur_2000rpm.npz", t_s=r.t, te_m=r.te, theta_rad=theta)
+    (tmp_path / "spur_2000rpm.json").write_text(json.dumps(
+        {"t_steady_from_s": ramp + 1 / f_mesh, "torque_out_Nm": 120.0, "ramp_s": ramp, "outline_size_mm": 0.3,
+         "body_size_mm": 2.0, "t_end_s": float(r.t[-1]), "wall_s": 1.0}))
+    out = tmp_path / "v.json"
+    rc = main(["validate", "thesis-spur", "--rpm", "2000", "--fe-dir", str(tmp_path), "--excitation", "analytical",
+               "--json", str(out), "--plot", str(tmp_path / "v.png")])
+    assert rc == 0, capsys.readouterr()
+    d = json.loads(out.read_text())
+    s = d["speeds"][0]
+    assert s["rpm_in"] == 2000.0 and s["fe_source"] == "stored" and s["passed"] is True
+    for key in ("dte_rms_um", "gmf1_amplitude_um", "gmf2_amplitude_um", "gmf3_amplitude_um"):
+        assert abs(s["metrics"][key]["rel_error"]) < 1e-9
+    assert abs(s["metrics"]["gmf1_phase_deg"]["error_deg"]) < 1e-6
+    assert (tmp_path / "v.png").stat().st_size > 10_000
