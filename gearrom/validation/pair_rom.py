@@ -35,7 +35,7 @@ from gearrom.errors import ModelError
 log = logging.getLogger(__name__)
 
 __all__ = ["PairRomSetup", "PairRomResult", "fe_start_mesh_phase", "polar_inertia", "mesh_excitation",
-           "simulate_pair_rom"]
+           "scaled_excitation", "simulate_pair_rom"]
 
 
 def polar_inertia(nodes: np.ndarray, quads: np.ndarray, center, density: float, width: float) -> float:
@@ -94,6 +94,28 @@ def mesh_excitation(pair, torque: float, source: str = "fe", n_positions: int = 
     from gearrom.excitation.analytical import analytical_excitation
 
     return analytical_excitation(pair, [float(torque)], config_name=config_name), "analytical (ISO 6336 shaped)"
+
+
+def scaled_excitation(excitation, torque: float, scale: float):
+    """The table with its stiffness multiplied by ``scale`` at ``torque`` and the separation point
+    ``e0 = e - F_nom / k`` kept (same kinematic part, static deflection ``F_nom / k`` divided by ``scale``).
+
+    A diagnostic only (how much of a ROM-vs-FE difference is the mean mesh stiffness level).
+    """
+    from dataclasses import replace
+
+    if not scale > 0:
+        raise ModelError(f"stiffness scale must be > 0, got {scale}")
+    k = np.asarray(excitation.k, float)
+    e = np.asarray(excitation.e, float)
+    f_nom = np.asarray(excitation.torque, float)[:, None] / 1.0
+    rb2 = excitation.metadata.get("rb2_m")
+    if rb2 is None:
+        raise ModelError("scaled_excitation needs metadata['rb2_m'] (output base radius)")
+    f_nom = f_nom / rb2
+    e0 = e - f_nom / k
+    meta = dict(excitation.metadata, stiffness_scale=float(scale))
+    return replace(excitation, k=k * scale, e=e0 + f_nom / (k * scale), metadata=meta)
 
 
 @dataclass(frozen=True)

@@ -17,7 +17,8 @@ import numpy as np
 
 from gearrom.errors import ConfigError, MeasurementError
 from gearrom.validation.compare import TOLERANCES, compare_metrics, steady_window, te_metrics
-from gearrom.validation.pair_rom import PairRomSetup, mesh_excitation, polar_inertia, simulate_pair_rom
+from gearrom.validation.pair_rom import (PairRomSetup, mesh_excitation, polar_inertia, scaled_excitation,
+                                         simulate_pair_rom)
 
 log = logging.getLogger(__name__)
 
@@ -35,6 +36,13 @@ class FERecord:
     te: np.ndarray
     meta: dict
     source: str = "stored"
+
+
+def replace_meta(excitation, **extra):
+    """The excitation with ``extra`` added to its metadata."""
+    from dataclasses import replace
+
+    return replace(excitation, metadata=dict(excitation.metadata, **extra))
 
 
 def load_fe_record(fe_dir: str | Path, rpm: float, prefix: str = "spur") -> FERecord:
@@ -129,6 +137,17 @@ def validate_speed(pair, rpm: float, fe: FERecord, excitation, excitation_label:
     m_rom = te_metrics(rom.theta_in[wr], rom.te[wr], z1)
     metrics, passed, misses = compare_metrics(m_rom, m_fe)
     meta = dict(rom.meta, excitation=excitation_label, inertia_source=inertia_label, mesh_periods=m_rom["mesh_periods"])
+    # diagnostic (not part of the verdict): the same ROM with its mesh stiffness scaled so that the mean
+    # elastic deflection equals the FE's, i.e. how much of the difference is the stiffness level
+    e0_mean = rom.meta["ste_mean_m"] - torque / pair.rb[1] / rom.meta["k_mean_N_per_m"]
+    scale = (m_rom["te_mean_um"] * 1e-6 - e0_mean) / (m_fe["te_mean_um"] * 1e-6 - e0_mean)
+    if scale > 0 and math.isfinite(scale):
+        ex_s = scaled_excitation(replace_meta(excitation, rb2_m=pair.rb[1]), torque, scale)
+        rom_s = simulate_pair_rom(pair, ex_s, setup, t_end=float(fe.t[-1]), sample_period=1.0 / (f_mesh * 128))
+        ws = steady_window(rom_s.theta_in, rom_s.t, t_from, z1)
+        m_s, passed_s, misses_s = compare_metrics(te_metrics(rom_s.theta_in[ws], rom_s.te[ws], z1), m_fe)
+        meta["diagnostic_stiffness_matched"] = {"stiffness_scale": scale, "metrics": m_s, "would_pass": passed_s,
+                                                "misses": misses_s}
     return SpeedComparison(rpm, fe, rom.t, rom.theta_in, rom.te, meta, metrics, passed, misses, wf, wr)
 
 
