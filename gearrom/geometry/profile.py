@@ -126,7 +126,7 @@ def _resample(pts: np.ndarray, n: int) -> np.ndarray:
     return np.column_stack([np.interp(t, s, pts[:, 0]), np.interp(t, s, pts[:, 1])])
 
 
-def generated_points(pair: GearPair, i: int, n_tip: int = 400, n_flank: int = 400) -> tuple[np.ndarray, np.ndarray]:
+def generated_points(pair: GearPair, i: int, n_tip: int = 4000, n_flank: int = 400) -> tuple[np.ndarray, np.ndarray]:
     """Raw envelope of the generating rack for the left flank of tooth 0 (centred on +y).
 
     Returns
@@ -174,10 +174,8 @@ def tooth_profile(
     -------
     ToothProfile
     """
-    z = pair.gears[i].z
-    rb, ra, rf = pair.rb[i], 0.5 * pair.da[i], 0.5 * pair.df[i]
+    rb, ra = pair.rb[i], 0.5 * pair.da[i]
     gen, lab = generated_points(pair, i)
-    radius = np.hypot(gen[:, 0], gen[:, 1])
     fillet = gen[lab == 1]
     form_radius = float(np.hypot(*fillet[-1])) if len(fillet) else float(np.hypot(*gen[lab == 2][0]))
     if form_radius <= rb * (1 + 1e-9) and len(fillet):
@@ -203,20 +201,14 @@ def tooth_profile(
         arc = np.linspace(a0, a0 + (a1 - a0 + math.pi) % (2 * math.pi) - math.pi, n_tip + 1)[1:]
         edge = centre + rho_e * np.column_stack([np.cos(arc), np.sin(arc)])
         inv_left = np.vstack([inv_left, edge])
-    # fillet (generated trochoid, incl. tip flat -> root circle), ordered root -> form circle
-    low = gen[(lab <= 1) & (radius <= r0 * (1 + 1e-12))]
-    low = low[low[:, 0] <= 0] if np.any(low[:, 0] <= 0) else low
-    low = low[np.argsort(np.hypot(low[:, 0], low[:, 1]))]
-    fil_left = _resample(low, n_fillet) if len(low) > 1 else np.empty((0, 2))
-    # root arc from the middle of the left space to the fillet start
-    phi_space = math.pi / 2 + math.pi / z
-    if len(fil_left):
-        phi_f0 = math.atan2(fil_left[0, 1], fil_left[0, 0])
-        r_root = float(np.hypot(*fil_left[0]))
+    # root circle (cut by the tool tip flat) and fillet (trochoid of the tool tip rounding), both in
+    # generation order: from the middle of the left space to the form circle
+    root_gen, fil_gen = gen[lab == 0], gen[lab == 1]
+    fil_left = _resample(fil_gen, n_fillet) if len(fil_gen) > 1 else np.empty((0, 2))
+    if len(root_gen) > 1 and len(fil_gen):
+        root_left = _resample(np.vstack([root_gen, fil_gen[:1]]), n_root + 1)[:-1]
     else:
-        phi_f0, r_root = math.atan2(inv_left[0, 1], inv_left[0, 0]), rf
-    phis = np.linspace(phi_space, phi_f0, n_root, endpoint=False)
-    root_left = np.column_stack([r_root * np.cos(phis), r_root * np.sin(phis)])
+        root_left = np.empty((0, 2))
     # tip arc from the flank end to the centre line
     phi_t0 = math.atan2(inv_left[-1, 1], inv_left[-1, 0])
     phit = np.linspace(phi_t0, math.pi / 2, n_tip + 1)[1:]
