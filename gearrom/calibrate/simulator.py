@@ -132,6 +132,15 @@ def periodic_lookup(table: np.ndarray | None):
     return lambda th: np.interp(np.mod(th, 2 * math.pi), grid, ext)
 
 
+#: Rig parameters the ROM adapter can scale: name -> (config key or None, description).
+ROM_TUNABLE = {
+    "k_clutch": ("rig.clutch.stiffness_Nm_per_rad", "clutch/coupling torsional stiffness"),
+    "J_load": ("rig.load.inertia_kg_m2", "load-side inertia"),
+    "J_motor": ("rig.motor.inertia_kg_m2", "motor rotor inertia"),
+    "mesh_stiffness": (None, "mesh stiffness level (scales the excitation table)"),
+}
+
+
 class RomSimulator:
     """Adapter to the exudyn ROM of issue 4 (:func:`gearrom.rom.simulate_run`).
 
@@ -145,8 +154,8 @@ class RomSimulator:
     * load ripple -> ``Effects(load_ripple=(LoadRipple(order, amplitude, phase),))`` (N m, output order;
       the ROM writes ``sin``, the phase is shifted by 90 deg to keep this module's cosine convention).
 
-    Gap: the ROM exposes no rig-parameter scaling, so ``rig_scale`` raises and ``tunable()`` is empty
-    (the ``torsional_mode`` candidates are then not evaluated; the report says so).
+    * rig scaling -> :func:`gearrom.rom.with_overrides` of the config's rig values (``ROM_TUNABLE``);
+      ``mesh_stiffness`` scales the stiffness of the configured mesh excitation table.
     """
 
     name = "gearrom.rom (exudyn)"
@@ -168,30 +177,55 @@ class RomSimulator:
         self.micro = MicroMods.from_pair(self.pair)
 
     def tunable(self) -> dict[str, str]:
-        return {}
+        return {k: v[1] for k, v in ROM_TUNABLE.items()}
 
     def modes_hz(self, rig_scale=()) -> list[tuple[float, float]]:
         try:
-            res = self._rom.modal_analysis(self._model(None, 120.0))
+            res = self._rom.modal_analysis(self._model(None, 120.0, tuple(rig_scale)))
             return [(float(f), float(z)) for f, z in zip(res.freqs, res.damping)]
         except Exception:  # noqa: BLE001  (modal data are informative only)
             return []
 
-    def _model(self, micro: MicroMods | None, torque: float):
-        key = (micro, round(torque, 6))
+    def _model(self, micro: MicroMods | None, torque: float, rig_scale: tuple = ()):
+        key = (micro, round(torque, 6), tuple((str(n), round(float(v), 9)) for n, v in rig_scale))
         if key not in self._models:
+            import dataclasses
+
+            from gearrom.rom.rig import load_excitation, rom_section
+
+            scale = dict(key[2])
+            unknown = sorted(set(scale) - set(ROM_TUNABLE))
+            if unknown:
+                raise CalibrationError(f"RomSimulator: rig parameter(s) {unknown} not tunable; choose from {sorted(ROM_TUNABLE)}")
+            cfg = self.config
+            if any(ROM_TUNABLE[n][0] for n in scale):
+                params = self._rom.rig_parameters(self.config)
+                cfg = self._rom.with_overrides(self.config, {
+                    ROM_TUNABLE[n][0]: float(params[ROM_TUNABLE[n][0]]) * v for n, v in scale.items() if ROM_TUNABLE[n][0]})
             ex = None
             if micro is not None and micro != self.micro:
                 ex = self.micro_model.excitation(self.pair, [0.5 * torque, torque, 1.5 * torque], micro)
-            self._models[key] = self._rom.build_rig(self.config, torque, excitation=ex)
+            if "mesh_stiffness" in scale:
+                if ex is None:
+                    loaded = cfg if not isinstance(cfg, (str, bytes)) and hasattr(cfg, "pair") else self._rom_cfg()
+                    ex = load_excitation(loaded, rom_section(loaded), torque)
+                ex = dataclasses.replace(ex, k=ex.k * scale["mesh_stiffness"])
+            self._models[key] = self._rom.build_rig(cfg, torque, excitation=ex)
         return self._models[key]
+
+    def _rom_cfg(self):
+        import warnings
+
+        from gearrom.config import load_config
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return load_config(self.config, check=False)
 
     def simulate(self, run: RunConditions, changes: ModelChanges | None = None) -> SimHistory:
         from gearrom.rom import Effects, ExtraTE, LoadRipple
 
         ch = changes or ModelChanges()
-        if ch.rig_scale:
-            raise CalibrationError("RomSimulator: the exudyn ROM exposes no rig-parameter scaling (rig_scale)")
         if ch.micro is not None and self.micro_model is None:
             raise CalibrationError("RomSimulator: no micro-geometry model to build a mesh table from")
         z1, z2 = self.pair.z
@@ -207,7 +241,7 @@ class RomSimulator:
             amp, order, phase = ch.load_ripple
             ripple = (LoadRipple(order=float(order), amplitude=float(amp) * run.torque_out_Nm,
                                  phase=float(phase) + math.pi / 2),)
-        model = self._model(ch.micro, run.torque_out_Nm)
+        model = self._model(ch.micro, run.torque_out_Nm, tuple(ch.rig_scale))
         res = self._rom.simulate_run(model, run.rpm_in, run.torque_out_Nm, duration_s=run.duration_s,
                                      effects=Effects(extra=extra, load_ripple=ripple),
                                      sample_rate_hz=self.sample_rate_hz, settle_s=self.settle_s, theta0=theta0)
@@ -228,8 +262,7 @@ def default_simulator(config, prefer: str = "auto") -> Simulator:
         ``"rom"``: the exudyn ROM (:class:`RomSimulator`); ``"torsional"``: the small torsional rig
         model; ``"auto"``: the ROM when the configuration describes a rig (a ``[rig]`` section, as
         ``thesis-rig``), since it is then the user's own drivetrain; otherwise the torsional rig model
-        (fast, with assumed rig values, and able to re-tune rig parameters for ``torsional_mode``,
-        which the ROM adapter cannot yet).
+        (fast, with assumed rig values).
     """
     from gearrom.calibrate.rig import TorsionalRig
 

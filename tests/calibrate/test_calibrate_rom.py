@@ -44,3 +44,22 @@ def test_rom_runout_is_found(rom_runout, which):
     assert abs((e["parameters"]["phase_deg"] - phase + 180) % 360 - 180) <= (20 if which == "torsional" else 2)
     s = res.summary
     assert s["error_after_rms_um"] <= 0.5 * s["error_before_rms_um"], res.text()
+
+
+def test_rom_adapter_scales_rig_parameters():
+    """``rig_scale`` reaches the ROM: scaling the clutch stiffness through the adapter gives the same modes
+    as a config whose clutch value was changed by hand (gearrom.rom.with_overrides), a stiffer clutch
+    raises the first torsional mode, and an unknown parameter is refused with its name."""
+    from gearrom.calibrate.simulator import ModelChanges, RunConditions
+    from gearrom.errors import CalibrationError
+    from gearrom.rom import modal_analysis, rig_parameters, with_overrides, build_rig
+
+    sim = RomSimulator("thesis-rig")
+    assert {"k_clutch", "J_load", "mesh_stiffness"} <= set(sim.tunable())
+    k0 = rig_parameters("thesis-rig")["rig.clutch.stiffness_Nm_per_rad"]
+    by_hand = modal_analysis(build_rig(with_overrides("thesis-rig", {"rig.clutch.stiffness_Nm_per_rad": 2 * k0}), 120.0))
+    scaled = sim.modes_hz((("k_clutch", 2.0),))
+    assert [f for f, _ in scaled][:5] == pytest.approx(list(by_hand.freqs[:5]), rel=1e-9)
+    assert scaled[0][0] > sim.modes_hz()[0][0]
+    with pytest.raises(CalibrationError, match="k_gearbox"):
+        sim.simulate(RunConditions(1250.0, 120.0, 0.01), ModelChanges(rig_scale=(("k_gearbox", 1.2),)))
