@@ -27,6 +27,8 @@ def add_args(parser) -> None:
                         help="run a coarse explicit FE now (0.3 mm outline, 3 recorded mesh periods; minutes per speed)")
     parser.add_argument("--excitation", choices=("fe", "analytical", "auto"), default="fe",
                         help="mesh table of the ROM: quasi-static FE LTCA (default), analytical, or FE with fallback")
+    parser.add_argument("--no-facets", action="store_true",
+                        help="leave out the kinematic TE of the FE's faceted outlines (ideal involute ROM)")
     parser.add_argument("--damping-ratio", type=float, default=0.01, help="ROM mesh damping ratio (default 0.01)")
 
 
@@ -36,7 +38,7 @@ def run(args) -> int:
     if not args.damping_ratio >= 0:
         raise ConfigError(f"--damping-ratio must be >= 0, got {args.damping_ratio}")
     rep = validate(args.config, args.rpm, fe_dir=args.fe_dir, fresh=args.fresh, excitation_source=args.excitation,
-                   damping_ratio=args.damping_ratio)
+                   damping_ratio=args.damping_ratio, facets=not args.no_facets)
     out = rep.to_dict()
     if args.json:
         rep.save(args.json)

@@ -166,7 +166,7 @@ class PairRomResult:
 
 
 @njit(cache=True)
-def _rhs(t, x, v, om, phi0, period, kt, e0t, c, meq, T, tr, rb2):
+def _rhs(t, x, v, om, phi0, period, kt, e0t, c, meq, T, tr, rb2, kin, kin_step):
     n = kt.size
     u = ((phi0 + om * t) % period) / period * n
     i = int(u)
@@ -175,6 +175,10 @@ def _rhs(t, x, v, om, phi0, period, kt, e0t, c, meq, T, tr, rb2):
     i1 = (i + 1) % n
     k = kt[i0] * (1 - w) + kt[i1] * w
     e0 = e0t[i0] * (1 - w) + e0t[i1] * w
+    if kin.size > 1:
+        u = min(om * t / kin_step, kin.size - 1.000001)
+        i = int(u)
+        e0 += kin[i] + (u - i) * (kin[i + 1] - kin[i])
     f = 0.0
     if x > e0:
         f = k * (x - e0) + c * v
@@ -185,7 +189,7 @@ def _rhs(t, x, v, om, phi0, period, kt, e0t, c, meq, T, tr, rb2):
 
 
 @njit(cache=True)
-def _integrate(n_steps, dt, every, om, phi0, period, kt, e0t, c, meq, T, tr, rb2):
+def _integrate(n_steps, dt, every, om, phi0, period, kt, e0t, c, meq, T, tr, rb2, kin, kin_step):
     n_out = n_steps // every + 1
     xs = np.empty(n_out)
     fs = np.empty(n_out)
@@ -198,22 +202,23 @@ def _integrate(n_steps, dt, every, om, phi0, period, kt, e0t, c, meq, T, tr, rb2
         if s % every == 0:
             ts[j] = t
             xs[j] = x
-            fs[j] = _rhs(t, x, v, om, phi0, period, kt, e0t, c, meq, T, tr, rb2)[1]
+            fs[j] = _rhs(t, x, v, om, phi0, period, kt, e0t, c, meq, T, tr, rb2, kin, kin_step)[1]
             j += 1
         if s == n_steps:
             break
-        a1 = _rhs(t, x, v, om, phi0, period, kt, e0t, c, meq, T, tr, rb2)[0]
-        a2 = _rhs(t + 0.5 * dt, x + 0.5 * dt * v, v + 0.5 * dt * a1, om, phi0, period, kt, e0t, c, meq, T, tr, rb2)[0]
+        a1 = _rhs(t, x, v, om, phi0, period, kt, e0t, c, meq, T, tr, rb2, kin, kin_step)[0]
+        a2 = _rhs(t + 0.5 * dt, x + 0.5 * dt * v, v + 0.5 * dt * a1, om, phi0, period, kt, e0t, c, meq, T, tr, rb2, kin, kin_step)[0]
         a3 = _rhs(t + 0.5 * dt, x + 0.5 * dt * (v + 0.5 * dt * a1), v + 0.5 * dt * a2, om, phi0, period, kt, e0t, c,
-                  meq, T, tr, rb2)[0]
-        a4 = _rhs(t + dt, x + dt * (v + 0.5 * dt * a2), v + dt * a3, om, phi0, period, kt, e0t, c, meq, T, tr, rb2)[0]
+                  meq, T, tr, rb2, kin, kin_step)[0]
+        a4 = _rhs(t + dt, x + dt * (v + 0.5 * dt * a2), v + dt * a3, om, phi0, period, kt, e0t, c, meq, T, tr, rb2, kin, kin_step)[0]
         x = x + dt * (v + dt / 6.0 * (a1 + a2 + a3))
         v = v + dt / 6.0 * (a1 + 2 * a2 + 2 * a3 + a4)
     return ts[:j], xs[:j], fs[:j]
 
 
 def simulate_pair_rom(pair, excitation, setup: PairRomSetup, t_end: float, sample_period: float,
-                      phase0: float | None = None, n_table: int = 1024) -> PairRomResult:
+                      phase0: float | None = None, n_table: int = 1024,
+                      kinematic: tuple[float, np.ndarray] | None = None) -> PairRomResult:
     """Integrate the pair ROM from t = 0 (rigid contact, TE = 0, both gears at speed) to ``t_end``.
 
     Parameters
@@ -228,6 +233,9 @@ def simulate_pair_rom(pair, excitation, setup: PairRomSetup, t_end: float, sampl
         Table mesh phase at t = 0 [rad]; default :func:`fe_start_mesh_phase` (the FE's start).
     n_table : int
         Points per mesh period of the k / e0 lookup (linear interpolation of the Fourier-interpolated table).
+    kinematic : (step, values), optional
+        Extra kinematic TE [m] added to ``e`` (e.g. the FE outline facets, :mod:`gearrom.validation.facets`),
+        sampled at input angles ``0, step, 2 step...`` [rad] (linear; held beyond the end).
     """
     if not (t_end > 0 and sample_period > 0):
         raise ModelError(f"t_end and sample_period must be > 0 s, got {t_end}, {sample_period}")
@@ -251,8 +259,11 @@ def simulate_pair_rom(pair, excitation, setup: PairRomSetup, t_end: float, sampl
     dt = sample_period / every
     n_steps = int(math.ceil(t_end / dt))
     t0 = time.perf_counter()
+    kin_step, kin = (1.0, np.zeros(1)) if kinematic is None else (float(kinematic[0]), np.asarray(kinematic[1], float))
+    if kin.size > 1 and not kin_step > 0:
+        raise ModelError(f"kinematic TE step must be > 0 rad, got {kin_step}")
     ts, xs, fs = _integrate(n_steps, dt, every, om, phi0, period, k, e0, c, meq, setup.torque_out,
-                            setup.torque_ramp_time, rb2)
+                            setup.torque_ramp_time, rb2, kin, kin_step)
     wall = time.perf_counter() - t0
     meta = {"model": "1-DOF pair ROM (prescribed input speed, free output inertia), RK4/numba",
             "rpm_in": setup.rpm_in, "torque_out_Nm": setup.torque_out, "inertia_out_kgm2": setup.inertia_out,
@@ -260,5 +271,6 @@ def simulate_pair_rom(pair, excitation, setup: PairRomSetup, t_end: float, sampl
             "mesh_frequency_Hz": f_mesh, "dt_s": dt, "n_steps": n_steps, "wall_s": wall,
             "phase0_rad": phi0, "k_mean_N_per_m": kmean, "ste_mean_m": float(e.mean()),
             "excitation_definition": excitation.definition,
+            "kinematic_te_ptp_m": float(np.ptp(kin)) if kin.size > 1 else 0.0,
             "excitation_theta_origin": excitation.metadata.get("theta_origin", "")}
     return PairRomResult(t=ts, theta_in=om * ts, te=xs, force=fs, meta=meta)

@@ -120,30 +120,62 @@ class SpeedComparison:
                 "rom": {k: v for k, v in self.rom_meta.items() if k != "excitation_definition"}}
 
 
+def facet_kinematic_te(pair, excitation, torque: float, outline: float, body: float, theta_end: float,
+                       per_period: int = 32) -> tuple[float, np.ndarray]:
+    """Kinematic TE of the FE's faceted outlines over input angles 0..theta_end: (step [rad], values [m])."""
+    from gearrom.fe.explicit.gearmesh import gear_quad_mesh
+    from gearrom.validation.facets import faceted_rigid_te
+    from gearrom.validation.pair_rom import fe_start_mesh_phase
+
+    period = 2 * math.pi / pair.z[0]
+    step = period / per_period
+    th = np.arange(0.0, theta_end + 2 * step, step)
+    phase0 = fe_start_mesh_phase(pair)
+    j = int(np.argmin(np.abs(np.asarray(excitation.torque) - torque)))
+    share_tab = np.asarray(excitation.load_share)[j]                       # (n_theta, n_pairs)
+    idx = np.round(np.mod(phase0 + th, period) / period * share_tab.shape[0]).astype(int) % share_tab.shape[0]
+    meshes = [gear_quad_mesh(pair, i, outline, body) for i in (0, 1)]
+    k = np.asarray(excitation.stiffness(np.mod(phase0 + th, period), torque), float)
+    return step, faceted_rigid_te(pair, meshes, th, share_tab[idx], phase0, force=torque / pair.rb[1], stiffness=k)
+
+
 def validate_speed(pair, rpm: float, fe: FERecord, excitation, excitation_label: str, inertia_out: float,
-                   inertia_label: str, damping_ratio: float = 0.01) -> SpeedComparison:
-    """Run the pair ROM for the FE record's set-up and compare both on the FE's steady window."""
+                   inertia_label: str, damping_ratio: float = 0.01,
+                   kinematic: tuple[float, np.ndarray] | None = None) -> SpeedComparison:
+    """Run the pair ROM for the FE record's set-up and compare both on the FE's steady window.
+
+    ``kinematic``: optional (step, values) kinematic TE over the input angle (the FE outline facets).
+    """
     z1 = pair.z[0]
     f_mesh = rpm / 60 * z1
     torque = float(fe.meta["torque_out_Nm"])
     ramp = float(fe.meta.get("ramp_s", 0.3e-3))
     setup = PairRomSetup(rpm_in=rpm, torque_out=torque, torque_ramp_time=ramp, inertia_out=inertia_out,
                          damping_ratio=damping_ratio)
-    rom = simulate_pair_rom(pair, excitation, setup, t_end=float(fe.t[-1]), sample_period=1.0 / (f_mesh * 128))
+    rom = simulate_pair_rom(pair, excitation, setup, t_end=float(fe.t[-1]), sample_period=1.0 / (f_mesh * 128),
+                            kinematic=kinematic)
     t_from = float(fe.meta["t_steady_from_s"])
     wf = steady_window(fe.theta_in, fe.t, t_from, z1)
     wr = steady_window(rom.theta_in, rom.t, t_from, z1)
     m_fe = te_metrics(fe.theta_in[wf], fe.te[wf], z1)
     m_rom = te_metrics(rom.theta_in[wr], rom.te[wr], z1)
     metrics, passed, misses = compare_metrics(m_rom, m_fe)
-    meta = dict(rom.meta, excitation=excitation_label, inertia_source=inertia_label, mesh_periods=m_rom["mesh_periods"])
+    meta = dict(rom.meta, excitation=excitation_label, inertia_source=inertia_label, mesh_periods=m_rom["mesh_periods"],
+                geometry=("ideal involute + FE outline facets (per-pair rigid gaps, loaded pairs by stiffness share)" if kinematic is not None
+                          else "ideal involute (mesh table only)"))
+    if kinematic is not None:       # diagnostic: the ROM of the ideal involute (mesh table only)
+        rom_i = simulate_pair_rom(pair, excitation, setup, t_end=float(fe.t[-1]), sample_period=1.0 / (f_mesh * 128))
+        wi = steady_window(rom_i.theta_in, rom_i.t, t_from, z1)
+        m_i, passed_i, misses_i = compare_metrics(te_metrics(rom_i.theta_in[wi], rom_i.te[wi], z1), m_fe)
+        meta["diagnostic_ideal_involute"] = {"metrics": m_i, "would_pass": passed_i, "misses": misses_i}
     # diagnostic (not part of the verdict): the same ROM with its mesh stiffness scaled so that the mean
     # elastic deflection equals the FE's, i.e. how much of the difference is the stiffness level
     e0_mean = rom.meta["ste_mean_m"] - torque / pair.rb[1] / rom.meta["k_mean_N_per_m"]
     scale = (m_rom["te_mean_um"] * 1e-6 - e0_mean) / (m_fe["te_mean_um"] * 1e-6 - e0_mean)
     if scale > 0 and math.isfinite(scale):
         ex_s = scaled_excitation(replace_meta(excitation, rb2_m=pair.rb[1]), torque, scale)
-        rom_s = simulate_pair_rom(pair, ex_s, setup, t_end=float(fe.t[-1]), sample_period=1.0 / (f_mesh * 128))
+        rom_s = simulate_pair_rom(pair, ex_s, setup, t_end=float(fe.t[-1]), sample_period=1.0 / (f_mesh * 128),
+                                  kinematic=kinematic)
         ws = steady_window(rom_s.theta_in, rom_s.t, t_from, z1)
         m_s, passed_s, misses_s = compare_metrics(te_metrics(rom_s.theta_in[ws], rom_s.te[ws], z1), m_fe)
         meta["diagnostic_stiffness_matched"] = {"stiffness_scale": scale, "metrics": m_s, "would_pass": passed_s,
@@ -198,8 +230,11 @@ class ValidationReport:
 
 
 def validate(config: str, rpms, fe_dir: str | Path | None = None, fresh: bool = False,
-             excitation_source: str = "fe", damping_ratio: float = 0.01) -> ValidationReport:
-    """Compare the pair ROM with the explicit FE of ``config`` at each input speed in ``rpms``."""
+             excitation_source: str = "fe", damping_ratio: float = 0.01, facets: bool = True) -> ValidationReport:
+    """Compare the pair ROM with the explicit FE of ``config`` at each input speed in ``rpms``.
+
+    ``facets``: add the kinematic TE of the FE's faceted outlines to the ROM (same discretised gears).
+    """
     from gearrom.config import load_config
 
     cfg = load_config(config)
@@ -223,7 +258,11 @@ def validate(config: str, rpms, fe_dir: str | Path | None = None, fresh: bool = 
         if key not in cache:
             cache[key] = output_inertia(pair, key[0] * 1e-3, key[1] * 1e-3)
         j2, j_label = cache[key]
-        s = validate_speed(pair, rpm, fe, ex, ex_label, j2, j_label, damping_ratio)
+        kin = None
+        if facets:
+            kin = facet_kinematic_te(pair, ex, torque, key[0] * 1e-3, key[1] * 1e-3,
+                                     rpm * 2 * math.pi / 60 * float(fe.t[-1]))
+        s = validate_speed(pair, rpm, fe, ex, ex_label, j2, j_label, damping_ratio, kinematic=kin)
         s.rom_meta["z1"] = pair.z[0]
         speeds.append(s)
     return ValidationReport(cfg.name, speeds)

@@ -28,6 +28,7 @@ import numpy as np
 import pytest
 
 from gearrom.validation import PairRomSetup, polar_inertia, simulate_pair_rom
+from gearrom.validation.report import facet_kinematic_te
 
 RPM, TORQUE, RAMP, T_END = 2000.0, 120.0, 0.15e-3, 1.2e-3
 
@@ -59,13 +60,15 @@ def runs(spur):
     j2 = polar_inertia(nodes, quads, (0.0, 0.0), pair.gears[1].material.density, pair.gears[1].face_width)
     settings = MeshSettings().scaled(0.3e-3 / MeshSettings().flank_size)
     ex = stiffness_sweep(pair, [TORQUE], 32, settings=settings, cache_dir=False).to_excitation()
-    rom = simulate_pair_rom(pair, ex, PairRomSetup(rpm_in=RPM, torque_out=TORQUE, torque_ramp_time=RAMP,
-                                                   inertia_out=j2, damping_ratio=0.0), t_end=T_END, sample_period=sample)
-    return pair, res, te, rom
+    rs = PairRomSetup(rpm_in=RPM, torque_out=TORQUE, torque_ramp_time=RAMP, inertia_out=j2, damping_ratio=0.0)
+    rom = simulate_pair_rom(pair, ex, rs, t_end=T_END, sample_period=sample)
+    kin = facet_kinematic_te(pair, ex, TORQUE, 0.3e-3, 2e-3, RPM * 2 * math.pi / 60 * T_END)
+    rom_f = simulate_pair_rom(pair, ex, rs, t_end=T_END, sample_period=sample, kinematic=kin)
+    return pair, res, te, rom, rom_f
 
 
 def test_mean_te_fe_softer_than_ltca_rom(runs):
-    pair, res, te, rom = runs
+    pair, res, te, rom, _ = runs
     after = res.t > 2 * RAMP
     # both carry the load in the mean (FE: tooth torque on the output reference)
     assert np.mean(res.torque_body[after, 1]) == pytest.approx(-TORQUE, rel=0.05)
@@ -74,7 +77,7 @@ def test_mean_te_fe_softer_than_ltca_rom(runs):
 
 
 def test_torsional_mesh_mode_frequency(runs):
-    pair, res, te, rom = runs
+    pair, res, te, rom, _ = runs
     after = res.t > RAMP
     f_fe = _dominant_frequency(res.t[after], te[after])
     f_rom = _dominant_frequency(rom.t[rom.t > RAMP], rom.te[rom.t > RAMP])
@@ -82,3 +85,18 @@ def test_torsional_mesh_mode_frequency(runs):
     assert f_rom == pytest.approx(f_lin, rel=0.06)
     assert f_fe == pytest.approx(f_rom, rel=0.10), (f_fe, f_rom)
     assert math.isfinite(f_fe)
+
+
+def test_facet_kinematic_te_explains_the_coarse_dte(runs):
+    """The ROM with the kinematic TE of the FE's faceted 0.3 mm outlines (gearrom.validation.facets)
+    reproduces the coarse FE's dynamic TE much better than the ideal-involute ROM: the facets are
+    the dominant excitation of the coarse model. Measured on 1.6 ms: DTE RMS FE 5.4 um, ROM 6.5 um
+    with facets / 3.6 um without; correlation with the FE record 0.78 / 0.54."""
+    pair, res, te, rom, rom_f = runs
+    a = res.t > 2 * RAMP
+    n = int(a.sum())
+    fe = te[a]
+    plain, facet = rom.te[rom.t > 2 * RAMP][:n], rom_f.te[rom_f.t > 2 * RAMP][:n]
+    corr_plain, corr_facet = np.corrcoef(fe, plain)[0, 1], np.corrcoef(fe, facet)[0, 1]
+    assert corr_facet > 0.6 and corr_facet > corr_plain + 0.1, (corr_facet, corr_plain)
+    assert facet.std() == pytest.approx(fe.std(), rel=0.3), (facet.std(), fe.std())

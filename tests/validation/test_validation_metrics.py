@@ -162,3 +162,30 @@ def test_missing_stored_result_names_the_file(tmp_path):
 
     with pytest.raises(MeasurementError, match="spur_1250rpm.npz"):
         load_fe_record(tmp_path, 1250)
+
+
+def test_facet_kinematic_te_start_and_convergence(spur):
+    """Rigid facet TE of the explicit FE's outlines (gearrom.validation.facets).
+
+    References: (1) the FE starts in rigid first contact (its TE is defined zero there), so at the
+    start the pair in contact has zero gap and no pair overlaps: min over pairs = 0 (bisection and
+    the 1 um clearance: within 0.05 um); (2) chords converge to the involute with the chord sag
+    h^2 / (8 rho): halving h divides the facet TE by ~4 (measured ptp 18.2 -> 4.8 um, ratio 0.26).
+    """
+    from gearrom.fe.explicit.gearmesh import gear_quad_mesh
+    from gearrom.validation.facets import faceted_rigid_te
+
+    pair = spur.pair
+    phase0 = fe_start_mesh_phase(pair)
+    ex = analytical_excitation(pair, [120.0], n_theta=64)
+    period = 2 * math.pi / 32
+    th = np.arange(64) * period / 16
+    idx = np.round(np.mod(phase0 + th, period) / period * 64).astype(int) % 64
+    share = ex.load_share[0][idx]
+    ptp = {}
+    for h, b in ((0.3e-3, 2e-3), (0.15e-3, 1.5e-3)):
+        meshes = [gear_quad_mesh(pair, i, h, b) for i in (0, 1)]
+        gaps = [faceted_rigid_te(pair, meshes, np.zeros(1), np.eye(2)[[k]], phase0)[0] for k in (0, 1)]
+        assert min(gaps) == pytest.approx(0.0, abs=0.05e-6), gaps
+        ptp[h] = np.ptp(faceted_rigid_te(pair, meshes, th, share, phase0))
+    assert ptp[0.15e-3] < 0.5 * ptp[0.3e-3], ptp

@@ -1,0 +1,145 @@
+"""Rigid-geometry TE of the explicit FE's faceted gear outlines (the kinematic error of its mesh).
+
+The explicit FE resamples each gear outline uniformly along its whole length, so the flanks are
+chords of the involute whose positions differ from tooth to tooth. Rigid, such a pair has a
+non-zero TE that the quasi-static LTCA table (resolved 25 um flanks) does not contain. To let the
+ROM describe the same discretised gears, this module computes it: at each input angle the output
+gear (rigid, about its centre) is turned until its outline first touches the input's, by
+bisection on the overlap of the two outline polygons (vertex-in-polygon both ways, as the FE's
+node-to-segment contact), with the FE's start position and TE convention (TE = 0 at t = 0).
+"""
+from __future__ import annotations
+
+import logging
+import math
+
+import numpy as np
+
+from gearrom.errors import MeshError
+
+log = logging.getLogger(__name__)
+
+__all__ = ["faceted_rigid_te"]
+
+
+def _loop(nodes: np.ndarray, segs: np.ndarray) -> np.ndarray:
+    nxt = {int(a): int(b) for a, b in segs}
+    start = int(segs[0, 0])
+    order = [start]
+    while True:
+        k = nxt[order[-1]]
+        if k == start:
+            return np.array(order)
+        order.append(k)
+        if len(order) > len(segs):
+            raise MeshError("gear outline is not a single closed loop")
+
+
+def _rot(p: np.ndarray, c: np.ndarray, a: float) -> np.ndarray:
+    cs, sn = math.cos(a), math.sin(a)
+    q = p - c
+    return c + np.column_stack([cs * q[:, 0] - sn * q[:, 1], sn * q[:, 0] + cs * q[:, 1]])
+
+
+def faceted_rigid_te(pair, meshes, theta_in: np.ndarray, share: np.ndarray, phase0: float, clearance: float = 1e-6,
+                     radius: float = 1.2e-3, zero_start: bool = False, force: float | None = None,
+                     stiffness: np.ndarray | None = None) -> np.ndarray:
+    """Kinematic TE [m] of the explicit FE's faceted outlines at the input angles ``theta_in`` [rad, from the FE start].
+
+    Each tooth pair ``k`` in contact (load share ``share[:, k] > 0``; pair 0 entered contact at the table
+    phase 0) gets its own rigid gap ``g_k`` (first touch of the flank patches within ``radius`` of its
+    contact point on the line of action); the loaded pair's TE shifts by the stiffness-weighted mean
+    ``sum_k w_k g_k`` (linear springs: load share at zero gaps = stiffness share), which is returned.
+    With ``force`` [N] and the total mesh ``stiffness`` [N/m] per angle, pairs whose gap exceeds the
+    loaded deflection carry nothing: ``delta`` solves ``sum_k w_k K max(delta - g_k, 0) = F`` and
+    ``delta - F / K`` is returned.
+
+    Parameters
+    ----------
+    pair : GearPair
+    meshes : sequence of two (nodes, quads, bore) tuples
+        The explicit FE's gear meshes (:func:`gearrom.fe.explicit.gearmesh.gear_quad_mesh`).
+    theta_in : ndarray
+        Input-gear rotations (counter-clockwise) from the FE start position.
+    share : ndarray (n_angles, n_pairs)
+        Load share of pairs 0, 1, ... at each angle (from the mesh table at the ROM's phase).
+    phase0 : float
+        Table mesh phase of the FE start (:func:`gearrom.validation.pair_rom.fe_start_mesh_phase`).
+    clearance : float
+        The FE's initial clearance on the line of action, m (its TE is zero at rigid first contact).
+    radius : float
+        Flank patch radius around each pair's contact point, m.
+    zero_start : bool
+        Subtract the value at the first angle.
+    """
+    from matplotlib.path import Path
+
+    from gearrom.fe.explicit.gearpair import GearPairSetup, gear_pair_model
+    from gearrom.fe.explicit.model import boundary_segments
+
+    model, info = gear_pair_model(pair, meshes, GearPairSetup(clearance=clearance))
+    x = np.asarray(model.nodes, float)
+    off = info["n_gear1"]
+    segs = boundary_segments(np.asarray(model.elements))
+    bore = set(int(i) for i in model.node_sets["bore_1"]) | set(int(i) for i in model.node_sets["bore_2"])
+    outer = np.array([s for s in segs if not (int(s[0]) in bore and int(s[1]) in bore)])
+    g1 = outer[(outer < off).all(axis=1)]
+    g2 = outer[(outer >= off).all(axis=1)]
+    loop1, loop2 = _loop(x, g1), _loop(x, g2)
+    c1, c2 = np.zeros(2), np.array([pair.aw, 0.0])
+    rb1, rb2 = pair.rb
+    z1, z2 = pair.z
+    p1, p2 = x[loop1], x[loop2]
+    drive1 = np.isin(loop1, model.node_sets["flank_1"])
+    drive2 = np.isin(loop2, model.node_sets["flank_2"])
+    hi = 50e-6 / rb2                                     # +-50 um on the line of action (facets: a few um)
+    a = pair.alpha_wt
+    n_loa = np.array([math.sin(a), math.cos(a)])
+    t1 = rb1 * np.array([math.cos(a), -math.sin(a)])   # tangent point on the input base circle
+    period = 2 * math.pi / z1
+    phi = np.mod(phase0 + np.asarray(theta_in, float), period)
+    n_pairs = share.shape[1]
+    te = np.zeros(len(phi))
+    for j, (th, ph) in enumerate(zip(np.asarray(theta_in, float), phi)):
+        q1 = _rot(p1, c1, th)
+        base2 = _rot(p2, c2, -th * z1 / z2)           # output turns clockwise at the ratio
+        poly1 = Path(q1)
+        w = share[j]
+        gaps = np.full(n_pairs, np.nan)
+        for k in range(n_pairs):
+            if w[k] <= 1e-6:
+                continue
+            point = t1 + n_loa * (pair.roll_start_active[0] + rb1 * ph + k * pair.pb_t)
+            sel1 = drive1 & (np.hypot(*(q1 - point).T) < radius)
+            near1 = q1[sel1]
+
+            def overlap(ang, sel1=sel1, near1=near1, point=point):
+                q2 = _rot(base2, c2, ang)
+                near2 = q2[drive2 & (np.hypot(*(q2 - point).T) < radius)]
+                return bool(poly1.contains_points(near2).any() or Path(q2).contains_points(near1).any())
+
+            lo, up = -hi, hi
+            if overlap(lo) or not overlap(up):
+                continue                                  # this pair's flank patch is not bracketed: skip it
+            for _ in range(40):
+                mid = 0.5 * (lo + up)
+                if overlap(mid):
+                    up = mid
+                else:
+                    lo = mid
+            gaps[k] = rb2 * lo - clearance                # the FE's TE is zero at the clearance-free start
+        ok = np.isfinite(gaps)
+        if not ok.any():
+            raise MeshError(f"no tooth pair in rigid contact at input angle {th:.6g} rad")
+        if force is None or stiffness is None:
+            te[j] = np.sum(w[ok] * gaps[ok]) / np.sum(w[ok])
+            continue
+        g, ww = gaps[ok], w[ok] / np.sum(w[ok]) * stiffness[j]
+        order = np.argsort(g)
+        g, ww = g[order], ww[order]
+        for m in range(1, g.size + 1):                   # pairs 0..m-1 in contact
+            delta = (force + np.sum(ww[:m] * g[:m])) / np.sum(ww[:m])
+            if m == g.size or delta <= g[m]:
+                break
+        te[j] = delta - force / stiffness[j]
+    return te - te[0] if zero_start else te
