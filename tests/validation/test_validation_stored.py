@@ -95,7 +95,7 @@ def test_cli_end_to_end_against_itself(tmp_path, spur, capsys):
         {"t_steady_from_s": ramp + 1 / f_mesh, "torque_out_Nm": 120.0, "ramp_s": ramp, "outline_size_mm": 0.3,
          "body_size_mm": 2.0, "t_end_s": float(r.t[-1]), "wall_s": 1.0}))
     out = tmp_path / "v.json"
-    rc = main(["validate", "thesis-spur", "--rpm", "2000", "--fe-dir", str(tmp_path), "--excitation", "analytical",
+    rc = main(["validate", "thesis-spur", "--rpm", "2000", "--fe-dir", str(tmp_path), "--excitation", "analytical", "--no-facets",
                "--json", str(out), "--plot", str(tmp_path / "v.png")])
     assert rc == 0, capsys.readouterr()
     d = json.loads(out.read_text())
