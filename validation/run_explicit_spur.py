@@ -1,0 +1,62 @@
+"""Reference explicit FE runs of the seed's spur pair (2D plane strain Q4), 120 N m on the output.
+
+Usage: ``python validation/run_explicit_spur.py RPM [PERIODS]`` (writes validation/spur_<rpm>rpm.npz/.json;
+PERIODS recorded mesh periods after settling, default 10).
+
+Both gears start at speed; the output torque ramps in over 0.3 ms (instead of the seed's speed ramp of
+0.35-0.5 ms: starting at speed avoids the impact the seed's ramp was there to soften), then one mesh
+period settles and ten mesh periods are recorded (issue: >= 10 after settling). Frictionless flanks
+(mu = 0; the seed used 0.1, which the ROM does not model), no extra inertia on the reference nodes
+(the gear bodies alone, as in the seed's FE). The mesh is the all-quad gmsh mesh with 0.15 mm
+outline elements (the rigid-geometry TE of that faceted outline stays within ~2 um).
+This is a long job (tens of minutes per speed on one core): run it in the background.
+"""
+from __future__ import annotations
+
+import json
+import os
+import platform
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from gearrom.config import load_config
+from gearrom.fe.explicit.gearmesh import gear_quad_mesh
+from gearrom.fe.explicit.gearpair import GearPairSetup, run_gear_pair
+from gearrom.fe.explicit.result import ENERGY_NAMES
+
+HERE = Path(__file__).resolve().parent
+
+
+def main(rpm: float, outline: float = 0.15e-3, body: float = 1.5e-3, periods: int = 10, settle_periods: int = 1) -> Path:
+    pair = load_config("thesis-spur").pair
+    meshes = [gear_quad_mesh(pair, i, outline, body) for i in (0, 1)]
+    f_mesh = rpm / 60 * pair.z[0]
+    ramp = 0.3e-3
+    t_end = ramp + (settle_periods + periods) / f_mesh
+    setup = GearPairSetup(rpm_in=rpm, torque_out=120.0, torque_ramp_time=ramp, mu=0.0)
+    t0 = time.perf_counter()
+    res, te, info = run_gear_pair(pair, meshes, setup, t_end=t_end, sample_period=1.0 / (f_mesh * 128), parallel=False)
+    wall = time.perf_counter() - t0
+    stem = HERE / f"spur_{int(rpm)}rpm"
+    t_start = ramp + settle_periods / f_mesh
+    np.savez_compressed(stem.with_suffix(".npz"), t_s=res.t, te_m=te, theta_rad=res.theta,
+                        **{f"energy_{k}": res.energies[:, j] for j, k in enumerate(ENERGY_NAMES)})
+    meta = {
+        "config": "thesis-spur", "rpm_in": rpm, "torque_out_Nm": 120.0, "mu": 0.0,
+        "mesh_frequency_Hz": f_mesh, "ramp_s": ramp, "t_steady_from_s": t_start, "t_end_s": t_end,
+        "mesh_periods_recorded": periods, "outline_size_mm": outline * 1e3, "body_size_mm": body * 1e3,
+        "flank_spacing_mm": info["flank_spacing_m"] * 1e3, "n_elements": res.meta["n_elements"],
+        "n_nodes": res.meta["n_nodes"], "dt_s": res.meta["dt_s"], "n_steps": res.meta["n_steps"],
+        "wall_s": wall, "hourglass_ratio": res.hourglass_ratio, "energy_error": res.energy_error,
+        "machine": {"cpu_count": os.cpu_count(), "platform": platform.platform(), "load_average": os.getloadavg()},
+        "te_definition": "rb1*theta1 - rb2*theta2 on the line of action, m, positive when the output lags",
+    }
+    stem.with_suffix(".json").write_text(json.dumps(meta, indent=2, default=float) + "\n")
+    return stem
+
+
+if __name__ == "__main__":
+    main(float(sys.argv[1]), periods=int(sys.argv[2]) if len(sys.argv) > 2 else 10)
