@@ -17,7 +17,10 @@ import pytest
 from gearrom.validation.report import DEFAULT_FE_DIR
 
 RPMS = (1250, 2000)
-MISSES: dict[int, str] = {}     # rpm -> measured miss (filled in from the committed references)
+MISSES: dict[int, str] = {     # rpm -> measured miss (from the committed references)
+    2000: "DTE RMS -18.4 % (ROM 2.89 vs FE 3.54 um) > 10 %; GMF1 +1.3 %, GMF2 -11.5 %, GMF3 +4.6 %, "
+          "GMF1 phase +3.7 deg pass (validation/rom_vs_fe_spur.json)",
+}
 
 
 def _have(rpm: int) -> bool:
