@@ -16,23 +16,11 @@ import math
 import numpy as np
 
 from gearrom.errors import MeshError
+from gearrom.fe.explicit.gearpair import outline_order
 
 log = logging.getLogger(__name__)
 
 __all__ = ["faceted_rigid_te"]
-
-
-def _loop(nodes: np.ndarray, segs: np.ndarray) -> np.ndarray:
-    nxt = {int(a): int(b) for a, b in segs}
-    start = int(segs[0, 0])
-    order = [start]
-    while True:
-        k = nxt[order[-1]]
-        if k == start:
-            return np.array(order)
-        order.append(k)
-        if len(order) > len(segs):
-            raise MeshError("gear outline is not a single closed loop")
 
 
 def _rot(p: np.ndarray, c: np.ndarray, a: float) -> np.ndarray:
@@ -85,7 +73,7 @@ def faceted_rigid_te(pair, meshes, theta_in: np.ndarray, share: np.ndarray, phas
     outer = np.array([s for s in segs if not (int(s[0]) in bore and int(s[1]) in bore)])
     g1 = outer[(outer < off).all(axis=1)]
     g2 = outer[(outer >= off).all(axis=1)]
-    loop1, loop2 = _loop(x, g1), _loop(x, g2)
+    loop1, loop2 = outline_order(g1), outline_order(g2)
     c1, c2 = np.zeros(2), np.array([pair.aw, 0.0])
     rb1, rb2 = pair.rb
     z1, z2 = pair.z

@@ -126,22 +126,32 @@ class GearPairSetup:
             raise ConfigError(f"GearPairSetup.clearance must be >= 0 m, got {self.clearance}")
 
 
+def outline_order(segs: np.ndarray) -> np.ndarray:
+    """Node indices of a closed boundary, in order, from its (start, end) segments.
+
+    Raises
+    ------
+    MeshError
+        The segments do not form one closed loop.
+    """
+    nxt = {int(a): int(b) for a, b in segs}
+    start = int(segs[0, 0])
+    order = [start]
+    while True:
+        k = nxt[order[-1]]
+        if k == start:
+            return np.array(order)
+        order.append(k)
+        if len(order) > len(segs):
+            raise MeshError("gear outline is not a single closed loop")
+
+
 def _touch_angle(n1, loop1, n2, loop2, center2, hi: float) -> float:
     """Largest counter-clockwise turn of gear 2 (about ``center2``) without overlap, by bisection."""
     from matplotlib.path import Path
 
     def polygon(nodes, segs):
-        nxt = {int(a): int(b) for a, b in segs}
-        start = int(segs[0, 0])
-        order = [start]
-        while True:
-            k = nxt[order[-1]]
-            if k == start:
-                break
-            order.append(k)
-            if len(order) > len(segs):
-                raise MeshError("gear outline is not a single closed loop")
-        return Path(nodes[order])
+        return Path(nodes[outline_order(segs)])
 
     p1 = polygon(n1, loop1)
     b1 = np.unique(loop1)
