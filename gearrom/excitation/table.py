@@ -105,6 +105,10 @@ class MeshExcitation:
     load_share : ndarray, shape (n_torque, n_theta, n_pairs)
         Share of the load carried by each tooth pair [-]; pair 0 is the one that enters contact at
         ``theta = 0``. Rows sum to 1 wherever the pair carries load.
+    pairs : ndarray of int, shape (n_pairs,), optional
+        Pair index of each ``load_share`` column, consecutive (default ``0 .. n_pairs-1``: column j is
+        pair j). Pair ``p`` entered contact ``p`` mesh periods before ``theta = 0``; ``-1`` is the next
+        pair, which may touch early (premature contact of deflected teeth). Use :meth:`share_of`.
     definition : str
         Which stiffness (secant/tangent) and which compliances it includes.
     max_pressure : ndarray, shape (n_torque, n_theta), optional
@@ -122,6 +126,7 @@ class MeshExcitation:
     definition: str
     max_pressure: np.ndarray | None = None
     metadata: dict[str, Any] = field(default_factory=dict)
+    pairs: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.z1, (int, np.integer)) or self.z1 < 1:
@@ -154,6 +159,12 @@ class MeshExcitation:
         ls = np.asarray(self.load_share, dtype=float)
         if ls.ndim != 3 or ls.shape[:2] != (n_tq, n_th):
             raise ModelError(f"MeshExcitation.load_share has shape {ls.shape}; expected ({n_tq}, {n_th}, n_pairs)")
+        pairs = np.arange(ls.shape[2]) if self.pairs is None else np.asarray(self.pairs)
+        if (pairs.shape != (ls.shape[2],) or not np.all(pairs == np.round(pairs))
+                or (pairs.size > 1 and np.any(np.diff(pairs) != 1))):
+            raise ModelError(f"MeshExcitation.pairs must be {ls.shape[2]} consecutive integers (one per load_share "
+                             f"column), got {self.pairs!r}")
+        object.__setattr__(self, "pairs", pairs.astype(int))
         if not isinstance(self.definition, str) or not self.definition.strip():
             raise ModelError("MeshExcitation.definition must say which stiffness this is (secant/tangent, compliances)")
         object.__setattr__(self, "theta", th)
@@ -206,6 +217,11 @@ class MeshExcitation:
         ph = np.multiply.outer(np.asarray(theta, dtype=float) * self.z1, m)
         return (np.exp(1j * ph) @ (scale * coeffs)).real
 
+    def share_of(self, pair: int) -> np.ndarray:
+        """Load share of tooth pair ``pair`` (n_torque, n_theta); zeros for a pair without a column."""
+        k = np.flatnonzero(self.pairs == pair)
+        return self.load_share[..., k[0]] if k.size else np.zeros(self.load_share.shape[:2])
+
     # ------------------------------------------------------------- evaluation
     def stiffness(self, theta: float | np.ndarray, torque: float) -> np.ndarray:
         """Mesh stiffness [N/m] at input-gear angle(s) ``theta`` [rad] (any value: periodic) and ``torque`` [N m]."""
@@ -251,7 +267,8 @@ class MeshExcitation:
             data["max_pressure"] = (("torque", "theta"), self.max_pressure, {"units": "Pa"})
         return xr.Dataset(
             data,
-            coords={"torque": ("torque", self.torque, {"units": "N m"}), "theta": ("theta", self.theta, {"units": "rad"})},
+            coords={"torque": ("torque", self.torque, {"units": "N m"}), "theta": ("theta", self.theta, {"units": "rad"}),
+                    "pair": ("pair", self.pairs, {"long_name": "tooth pair index (p entered p mesh periods earlier)"})},
             attrs={"format": "gearrom.MeshExcitation", "format_version": FORMAT_VERSION, "z1": int(self.z1),
                    "definition": self.definition, "metadata_json": json.dumps(self.metadata, default=str)},
         )
@@ -281,6 +298,7 @@ class MeshExcitation:
                 k=ds["k"].values, e=ds["e"].values, load_share=ds["load_share"].values,
                 definition=str(ds.attrs["definition"]), max_pressure=mp,
                 metadata=json.loads(ds.attrs.get("metadata_json", "{}")),
+                pairs=ds["pair"].values if "pair" in ds.coords else None,
             )
 
     # ------------------------------------------------------------------ plot
@@ -299,8 +317,8 @@ class MeshExcitation:
             axes[0].plot(deg, self.k[j] * 1e-6, label=lab)
             axes[1].plot(deg, self.e[j] * 1e6, label=lab)
         j = list(rows)[-1]
-        for p in range(self.load_share.shape[2]):
-            axes[2].plot(deg, self.load_share[j, :, p], label=f"pair {p}")
+        for n, p in enumerate(self.pairs):
+            axes[2].plot(deg, self.load_share[j, :, n], label=f"pair {p}")
         axes[0].set_ylabel("stiffness [N/um]")
         axes[1].set_ylabel("STE [um]")
         axes[2].set_ylabel(f"load share @ {self.torque[j]:.4g} N m")

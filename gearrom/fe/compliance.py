@@ -1,7 +1,9 @@
 """Flank influence coefficients of one gear from its plane-strain FE model (computed once per gear).
 
 The loaded (right) flank of each tooth is sampled on a grid uniform in involute arc length
-``sigma = L^2 / (2 r_b)`` (``L`` the roll length) with spacing ``spacing``. Grid point ``a`` of
+``sigma = L^2 / (2 r_b)`` (``L`` the roll length) with spacing ``spacing``; the grid continues with
+the same spacing over the tip edge rounding (:mod:`gearrom.fe.tipedge`: ``sigma = u_t + rho phi``
+there), so that contact can migrate from the involute onto the rounded tip edge. Grid point ``a`` of
 tooth 0 carries a unit normal force spread uniformly over the patch ``[sigma_a - s/2, sigma_a + s/2]``
 (a piecewise-constant pressure element); the response at grid point ``b`` of tooth ``j`` is the
 inward normal displacement averaged over the same patch. The loads and read-outs use the same
@@ -32,7 +34,11 @@ from gearrom.fe.mesh2d import MeshSettings, gear_mesh
 
 log = logging.getLogger(__name__)
 
-CODE_VERSION = "compliance-2d-v2"
+EDGE_GRID_FRACTION = 0.6
+"""The flank grid covers this fraction of the tip edge rounding's angle (about 40 deg of ~65 deg):
+contact further onto the rounding would need a relative flank rotation of that size."""
+
+CODE_VERSION = "compliance-2d-v3"  # v3: grid over the tip edge rounding
 
 
 @dataclass(frozen=True, eq=False)
@@ -55,7 +61,11 @@ class FlankCompliance:
     face_width : float
         Face width of the plane-strain model [m].
     info : dict
-        Mesh size, dof count, timings.
+        Mesh size, dof count, timings, tip edge radius and its source.
+    edge_radius : float
+        Tip edge rounding radius [m] (0: sharp corner, the grid ends at the involute end).
+    u_edge : float
+        Flank coordinate where the involute ends and the rounding starts [m].
     """
 
     rb: float
@@ -65,6 +75,13 @@ class FlankCompliance:
     G: np.ndarray
     face_width: float
     info: dict
+    edge_radius: float = 0.0
+    u_edge: float = math.inf
+
+    @property
+    def n_involute(self) -> int:
+        """Number of grid points on the involute (the rest lie on the tip edge rounding)."""
+        return int(np.searchsorted(self.sigma, self.u_edge, side="right"))
 
     def block(self, offset: int) -> np.ndarray:
         """The block ``G`` for tooth offset ``offset`` (zeros if it was not computed)."""
@@ -82,7 +99,7 @@ class FlankCompliance:
         path.parent.mkdir(parents=True, exist_ok=True)
         tmp = path.with_suffix(".tmp.npz")
         np.savez(tmp, rb=self.rb, sigma=self.sigma, spacing=self.spacing, offsets=self.offsets, G=self.G,
-                 face_width=self.face_width, info=json.dumps(self.info))
+                 face_width=self.face_width, info=json.dumps(self.info), edge_radius=self.edge_radius, u_edge=self.u_edge)
         tmp.replace(path)
         return path
 
@@ -90,7 +107,9 @@ class FlankCompliance:
     def load(cls, path: str | Path) -> "FlankCompliance":
         with np.load(path) as d:
             return cls(rb=float(d["rb"]), sigma=d["sigma"], spacing=float(d["spacing"]), offsets=d["offsets"],
-                       G=d["G"], face_width=float(d["face_width"]), info=json.loads(str(d["info"])))
+                       G=d["G"], face_width=float(d["face_width"]), info=json.loads(str(d["info"])),
+                       edge_radius=float(d["edge_radius"]) if "edge_radius" in d else 0.0,
+                       u_edge=float(d["u_edge"]) if "u_edge" in d else math.inf)
 
 
 def patch_operator(body: ElasticBody2D, edges: np.ndarray, node_coord: np.ndarray, to_coord, sigma: np.ndarray,
@@ -118,13 +137,15 @@ def patch_operator(body: ElasticBody2D, edges: np.ndarray, node_coord: np.ndarra
     return body.edge_operator(edges[e], xi, -normals, np.full(col.size, 1.0 / nq), col, sigma.size)
 
 
-def flank_grid(pair, i: int, spacing: float, form_radius: float, L_end: float | None = None) -> np.ndarray:
-    """Grid of involute arc lengths [m] from just above the form circle to the end of the involute
-    (``L_end``, the roll length where a tip edge rounding starts; default the tip circle)."""
+def flank_grid(pair, i: int, spacing: float, form_radius: float, L_end: float | None = None,
+               u_end: float | None = None) -> np.ndarray:
+    """Grid of flank coordinates [m] from just above the form circle to the end of the involute
+    (``L_end``, the roll length where a tip edge rounding starts; default the tip circle) or to the
+    flank coordinate ``u_end`` (a point on the rounding)."""
     rb = pair.rb[i]
     L_lo = math.sqrt(max(form_radius**2 - rb**2, 0.0))
     L_hi = math.sqrt((0.5 * pair.da[i]) ** 2 - rb**2) if L_end is None else L_end
-    s_lo, s_hi = L_lo**2 / (2 * rb), L_hi**2 / (2 * rb)
+    s_lo, s_hi = L_lo**2 / (2 * rb), (L_hi**2 / (2 * rb) if u_end is None else u_end)
     n = int(math.floor((s_hi - s_lo) / spacing - 1e-9))
     if n < 4:
         raise MeshError(f"flank grid spacing {spacing * 1e3:.4f} mm leaves fewer than 4 points on the flank")
@@ -151,38 +172,43 @@ def compute_compliance(pair, i: int, settings: MeshSettings | None = None, spaci
     nq : int
         Quadrature points per patch.
     """
+    from gearrom.fe.tipedge import FlankArc, tip_edge_radius
     from gearrom.geometry.profile import tooth_profile
 
     s = settings or MeshSettings()
     spacing = spacing or s.flank_size
     if offsets > s.near_teeth:
         raise MeshError(f"compliance offsets {offsets} exceed the named teeth near_teeth={s.near_teeth}")
+    rho, rho_source = tip_edge_radius(pair, i)
+    if rho_source == "default":
+        log.warning("%s: no tip_edge_radius_mm in the config; the FE rounds the tip edges with %.3f mm "
+                    "(0.1 m_n, drawing practice)", pair.gears[i].name, rho * 1e3)
     t0 = time.perf_counter()
-    mesh = gear_mesh(pair, i, s)
+    mesh = gear_mesh(pair, i, s, tip_edge_radius=rho)
     t1 = time.perf_counter()
     g = pair.gears[i]
     body = ElasticBody2D(mesh, g.material.youngs_modulus, g.material.poisson_ratio, g.face_width)
     t2 = time.perf_counter()
     rb = pair.rb[i]
-    prof = tooth_profile(pair, i)
-    L_end = float(np.nanmax(prof.roll))  # end of the involute (below a tip edge rounding, if any)
-    sigma = flank_grid(pair, i, spacing, prof.form_radius * (1 + 1e-6), L_end * (1 - 1e-9))
+    prof = tooth_profile(pair, i, tip_edge_radius=rho)
+    arc = FlankArc.of(pair, i, rho)
+    # the grid covers the involute and the first EDGE_GRID_FRACTION of the rounding's angle
+    u_end = arc.u_t + rho * EDGE_GRID_FRACTION * arc.phi_full if rho > 0 else arc.u_t * (1 - 1e-9)
+    sigma = flank_grid(pair, i, spacing, prof.form_radius * (1 + 1e-6), u_end=u_end)
     pts = mesh.points
     radius = np.hypot(pts[:, 0], pts[:, 1])
 
-    def sig_range(edges):
-        r = radius[np.unique(edges)]
-        L = np.sqrt(np.maximum(r**2 - rb**2, 0.0))
-        return L.min() ** 2 / (2 * rb), L.max() ** 2 / (2 * rb)
-
     ops = {}
     for j in range(-offsets, offsets + 1):
-        edges = mesh.curves.get(f"involute_r_{j}")
-        if edges is None or edges.size == 0:
+        parts = [mesh.curves.get(f"{n}_r_{j}") for n in ("involute", "edge")]
+        edges = np.vstack([e for e in parts if e is not None and e.size]) if any(
+            e is not None and e.size for e in parts) else None
+        if edges is None or parts[0] is None or parts[0].size == 0:
             raise MeshError(f"gear {i}: the mesh has no loaded flank curve for tooth {j}")
-        lo, hi = sig_range(edges)
-        ops[j] = patch_operator(body, edges, radius, lambda sg: np.sqrt(rb**2 + 2 * rb * sg), sigma, spacing,
-                                lo, hi, nq, f"gear {i} tooth {j} flank")
+        r = radius[np.unique(edges)]
+        lo, hi = (float(v) for v in arc.u_of_radius(np.array([r.min(), r.max()])))
+        ops[j] = patch_operator(body, edges, radius, arc.radius, sigma, spacing, lo, hi, nq,
+                                f"gear {i} tooth {j} flank")
     P0 = ops[0]
     R = sp.hstack([ops[j] for j in range(-offsets, offsets + 1)]).tocsc()
     n = sigma.size
@@ -198,20 +224,24 @@ def compute_compliance(pair, i: int, settings: MeshSettings | None = None, spaci
         raise MeshError(f"gear {i}: non-positive flank self-compliance (normals or mesh inverted)")
     info = {"nodes": int(mesh.points.shape[0]), "triangles": int(mesh.triangles.shape[0]), "dofs": int(body.ndof),
             "time_mesh_s": t1 - t0, "time_factorise_s": t2 - t1, "time_influence_s": t3 - t2,
-            "settings": asdict(s), "spacing": spacing, "gear": i}
+            "settings": asdict(s), "spacing": spacing, "gear": i, "tip_edge_radius_mm": rho * 1e3,
+            "tip_edge_radius_source": rho_source, "edge_grid_points": int(np.sum(sigma > arc.u_t))}
     log.info("gear %d compliance: %d grid points, %.1f s", i, n, t3 - t0)
     return FlankCompliance(rb=rb, sigma=sigma, spacing=spacing, offsets=np.arange(-offsets, offsets + 1), G=G,
-                           face_width=g.face_width, info=info)
+                           face_width=g.face_width, info=info, edge_radius=rho,
+                           u_edge=arc.u_t if rho > 0 else math.inf)
 
 
 def gear_key(pair, i: int, settings: MeshSettings, spacing: float, offsets: int) -> str:
     """Hash of everything that affects one gear's compliance (not torque, not micro-geometry)."""
+    from gearrom.fe.tipedge import tip_edge_radius
+
     g = pair.gears[i]
     data = {
         "code": CODE_VERSION, "mn": pair.mn, "alpha_n": pair.alpha_n, "beta": pair.beta, "z": g.z, "x": g.x,
         "da": pair.da[i], "df": pair.df[i], "dff": pair.dff[i], "tool": [pair.tool_addendum[i], pair.tool_tip_radius[i],
         g.tool.protuberance, g.tool.protuberance_angle], "b": g.face_width, "bore": g.bore_diameter,
-        "tip_edge_radius": getattr(g, "tip_edge_radius", None),
+        "tip_edge_radius": tip_edge_radius(pair, i)[0], "edge_grid": EDGE_GRID_FRACTION,
         "E": g.material.youngs_modulus, "nu": g.material.poisson_ratio, "mesh": asdict(settings),
         "spacing": spacing, "offsets": offsets,
     }

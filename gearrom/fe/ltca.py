@@ -12,6 +12,15 @@ of the two involutes measured along the line of action (second-order drop from t
 tangent with the involute curvature integrated exactly), plus the micro-geometry of
 :mod:`gearrom.fe.microgeo`. The approach ``delta`` is the loaded static TE along the transverse
 line of action (positive when the output lags); the unloaded kinematic TE is the smallest gap.
+
+Tip edges are rounded (:mod:`gearrom.fe.tipedge`): beyond the end of the involute, premature and
+prolonged contact is carried by the rounding of the output gear's tip (entering pair) or the input
+gear's tip (leaving pair). Those candidates use exact plane geometry: the grid points on the
+rounding are projected on the mate's involute along its normal; a contact off the line of action
+acts on the output gear with the lever arm of its normal, so its gap and compliance are expressed
+per unit rigid approach along the line of action (factor ``lambda``, Vijayakar's generalised
+contact). Without the rounding a sharp tip corner would touch: a singular contact whose pressure
+and STE never converge with mesh refinement.
 """
 from __future__ import annotations
 
@@ -26,8 +35,12 @@ from gearrom.errors import SolverError
 from gearrom.fe.compliance import FlankCompliance
 from gearrom.fe.contact import solve_contact
 from gearrom.fe.microgeo import needs_3d, pitch_removal, profile_removal, runout_removal, tip_limit
+from gearrom.fe.tipedge import FlankArc, InvoluteFrame
 
 log = logging.getLogger(__name__)
+
+EDGE_GAP_MAX = 0.2e-3
+"""Tip edge points farther than this from the mate's flank [m] are not contact candidates."""
 
 _GX, _GW = np.polynomial.legendre.leggauss(8)
 _GX, _GW = 0.5 * (_GX + 1), 0.5 * _GW
@@ -38,6 +51,28 @@ def _drop(t: np.ndarray, L_p: float, rb: float, sign: float) -> np.ndarray:
     s = np.multiply.outer(t, _GX)
     kappa = 1.0 / np.sqrt(np.maximum(L_p**2 + 2 * rb * sign * s, 1e-30))
     return t**2 * (((1 - _GX) * kappa) @ _GW)
+
+
+def _interp(G: np.ndarray, ia: np.ndarray, wa: np.ndarray, ib: np.ndarray, wb: np.ndarray) -> np.ndarray:
+    """``G`` between grid positions ``ia + wa`` (rows) and ``ib + wb`` (columns), interpolated along the
+    diagonal (shift of both points, exact for a shift-invariant kernel, so the self-compliance peak is
+    not smeared) and linearly in the offset between the two points."""
+    n = G.shape[0]
+    if not (np.any(wa) or np.any(wb)):
+        return G[np.ix_(ia, ib)]
+    off = (ib + wb)[None, :] - (ia + wa)[:, None]
+    m = np.floor(off).astype(int)
+    f = off - m
+    A = np.broadcast_to(ia[:, None], m.shape)
+
+    def g(r, c):
+        return G[np.clip(r, 0, n - 1), np.clip(c, 0, n - 1)]
+
+    base = (1 - f) * g(A, A + m) + f * g(A, A + m + 1)
+    if not np.any(wa):
+        return base
+    shifted = (1 - f) * g(A + 1, A + 1 + m) + f * g(A + 1, A + m + 2)
+    return (1 - wa)[:, None] * base + wa[:, None] * shifted
 
 
 @dataclass(frozen=True)
@@ -53,9 +88,11 @@ class PositionResult:
     force : float
         Transverse line-of-action force torque / r_b2 [N].
     pair, roll1, force_c, pressure : ndarray
-        Per contact candidate: pair index, input-gear roll length [m], force [N], pressure [Pa].
+        Per contact candidate: pair index, input-gear roll length [m], normal force [N], pressure [Pa].
     pairs : ndarray of int; pair_force : ndarray
-        Pair indices and the force each carries [N].
+        Pair indices and the force each carries [N], as its share of the transverse line-of-action
+        force (torque on the output gear / r_b2; equal to the normal force for involute contact,
+        which acts along the line of action), so ``pair_force.sum() == force``.
     """
 
     theta: float
@@ -109,28 +146,87 @@ class SpurLTCA:
         self.T = pair.aw * math.sin(pair.alpha_wt)
         self.L1_start = pair.roll_start_active[0]
         self.pb = pair.pb_t
-        # contact ends at the effective tip or where the involute ends (a tip edge rounding starts);
-        # contact on the rounding itself is not modelled
-        self.L_tip = tuple(min(tip_limit(pair, i), math.sqrt(2 * c.rb * (c.sigma[-1] + 0.5 * c.spacing)))
+        # the tip edge rounding of each gear (geometry of the compliance grid: the FE mesh has it)
+        self.arcs = tuple(FlankArc.of(pair, i, c.edge_radius) for i, c in enumerate((c1, c2)))
+        self.n_inv = (c1.n_involute, c2.n_involute)
+        # involute contact ends at the effective tip (d_Na) or where the involute ends; beyond the
+        # involute end the rounding carries the contact (when d_Na does not cut the tooth below it)
+        self.L_tip = tuple(min(tip_limit(pair, i), math.sqrt(2 * c.rb * min(c.u_edge, c.sigma[-1] + 0.5 * c.spacing)))
                            for i, c in enumerate((c1, c2)))
+        self.rounded = tuple(c.edge_radius > 0 and c.sigma.size > c.n_involute
+                             and tip_limit(pair, i) >= self.arcs[i].L_t * (1 - 1e-9) for i, c in enumerate((c1, c2)))
+        # every pair that can touch: the nominal ones (0 .. ceil(eps_alpha)) plus one more on each side
+        # (premature contact of the next pair, prolonged contact of the leaving one), plus a spare each
+        # side that must stay unloaded (checked in mesh_cycle)
         n_pairs = int(math.ceil(pair.eps_alpha)) + 1
-        self.pair_range = np.arange(-1, n_pairs)
+        self.pair_range = np.arange(-2, n_pairs + 1)
 
     @property
     def period(self) -> float:
         return 2 * math.pi / self.pair.z[0]
 
     # ---------------------------------------------------------------- gaps
+    def _frames(self, L1P: float, L2P: float) -> tuple[InvoluteFrame, InvoluteFrame]:
+        """Both loaded involutes of one pair in the line-of-action frame (x along the line of action from
+        the input base tangent point, input centre at (0, -r_b1), output centre at (T, r_b2))."""
+        rb1, rb2 = self.c[0].rb, self.c[1].rb
+        return (InvoluteFrame((0.0, -rb1), rb1, (0.0, 1.0), (1.0, 0.0), L1P),
+                InvoluteFrame((self.T, rb2), rb2, (0.0, -1.0), (-1.0, 0.0), L2P))
+
+    def _edge_candidates(self, g: int, L1P: float, L2P: float, base_gap: float):
+        """Contact of the tip edge rounding of gear ``g`` with the mate's involute (exact plane geometry).
+
+        Slave points: the grid points on the rounding of gear ``g``; master: the involute of the other
+        gear (closest-point projection along its normal, which is tangent to its base circle). Returns
+        (i1, w1, i2, w2, gap, lam, roll1, end) or None; ``gap`` is the normal gap [m], ``lam`` the
+        normal displacement of the contact per unit rigid approach along the line of action (1 when the
+        master is the output gear's involute; the output gear's lever arm of the contact normal over
+        r_b2 otherwise).
+        """
+        pr = self.pair
+        c, cm = self.c[g], self.c[1 - g]
+        arc = self.arcs[g]
+        frames = self._frames(L1P, L2P)
+        k = np.arange(self.n_inv[g], c.sigma.size)
+        phi = (c.sigma[k] - c.u_edge) / arc.rho
+        q = frames[g].arc_points(arc, phi)
+        d, Lf, n = frames[1 - g].project(q)
+        if g == 1:  # master = input involute: lever arm of the normal about the output centre
+            r = q - frames[1].o
+            lam = (-r[:, 1] * n[:, 0] + r[:, 0] * n[:, 1]) / c.rb
+        else:
+            lam = np.ones(k.size)
+        U = (Lf**2 / (2 * cm.rb) - cm.sigma[0]) / cm.spacing
+        im = np.floor(U).astype(int)
+        wm = U - im
+        keep = ((im >= 0) & (im + 1 <= self.n_inv[1 - g] - 1) & (Lf <= self.L_tip[1 - g] + 1e-12) & (d < EDGE_GAP_MAX)
+                & (lam > 0.1))
+        if not keep.any():
+            return None
+        k, im, wm, d, Lf, lam, phi = k[keep], im[keep], wm[keep], d[keep], Lf[keep], lam[keep], phi[keep]
+        L_own = np.full(k.size, self.arcs[g].L_t)
+        gap = d + base_gap + profile_removal(pr, g, L_own) + profile_removal(pr, 1 - g, Lf)
+        end = k == c.sigma.size - 1
+        zero = np.zeros(k.size)
+        if g == 1:
+            return im, wm, k, zero, gap, lam, Lf, end
+        return k, zero, im, wm, gap, lam, np.sqrt(2 * c.rb * c.sigma[k]), end
+
     def candidates(self, theta: float, mesh_index: int = 0, window: float | None = None, only=None):
         """Contact candidates per pair at ``theta``.
 
-        Each entry: (pair, gear-1 grid indices, gear-2 floor grid indices, gear-2 interpolation weight,
-        gaps [m], input roll lengths [m], window-edge flags, smallest gap incl. the ideal point [m]).
+        Each entry: (pair, gear-1 grid indices, gear-2 grid indices, gear-2 interpolation weights,
+        gaps [m], input roll lengths [m], window-edge flags, smallest gap incl. the ideal point [m],
+        gear-1 interpolation weights, lambda, grid-end flags). A point of gear ``g`` at ``(i, w)`` lies at
+        ``sigma[i] + w * spacing``. The gaps are expressed as rigid approach along the line of action
+        that closes them (normal gap / lambda, see :meth:`_edge_candidates`); involute-involute
+        candidates have lambda = 1.
         """
         pr, (c1, c2) = self.pair, self.c
         W = window or self.window
         rb1, rb2 = c1.rb, c2.rb
         d = c1.spacing
+        n1, n2 = self.n_inv
         L1_0 = self.L1_start + rb1 * theta
         rot1 = mesh_index * self.period + (L1_0 - 0.5 * pr.dw[0] * math.sin(pr.alpha_wt)) / rb1
         out = []
@@ -139,55 +235,66 @@ class SpurLTCA:
             L2P = self.T - L1P
             if L1P <= 0 or L2P <= 0:
                 continue
-            s1P, s2P = L1P**2 / (2 * rb1), L2P**2 / (2 * rb2)
-            a = np.flatnonzero(np.abs(c1.sigma - s1P) <= W)
-            a = a[np.sqrt(2 * rb1 * c1.sigma[a]) <= self.L_tip[0] + 1e-12]
-            if a.size == 0:
-                continue
-            U0 = (s2P + s1P - c2.sigma[0] - c1.sigma[0]) / d
-            fa0 = math.floor(U0)
-            w = U0 - fa0
-            fa = fa0 - a
-            keep = (fa >= 0) & (fa + 1 <= c2.sigma.size - 1)
-            a, fa = a[keep], fa[keep]
-            s2 = c2.sigma[0] + (fa + w) * d
-            keep = np.sqrt(2 * rb2 * s2) <= self.L_tip[1] + 1e-12
-            a, fa, s2 = a[keep], fa[keep], s2[keep]
-            if a.size == 0:
-                continue
-            t = c1.sigma[a] - s1P
-            L1 = np.sqrt(2 * rb1 * c1.sigma[a])
-            L2 = np.sqrt(2 * rb2 * s2)
             tooth = mesh_index - p
             r1 = rot1 + p * self.period
             extra = (pitch_removal(pr, 0, tooth) + pitch_removal(pr, 1, tooth)
                      + runout_removal(pr, 0, r1) + runout_removal(pr, 1, r1 * pr.z[0] / pr.z[1]))
-            gap = (_drop(t, L1P, rb1, 1.0) + _drop(t, L2P, rb2, -1.0) + profile_removal(pr, 0, L1)
-                   + profile_removal(pr, 1, L2) + extra)
-            # the gap at the ideal contact point itself (t = 0) when it lies on both flanks
-            on = (c1.sigma[0] <= s1P <= c1.sigma[-1] and L1P <= self.L_tip[0] and c2.sigma[0] <= s2P <= c2.sigma[-1]
+            parts = []
+            # involute against involute, around the ideal contact point on the line of action
+            s1P, s2P = L1P**2 / (2 * rb1), L2P**2 / (2 * rb2)
+            a = np.flatnonzero(np.abs(c1.sigma[:n1] - s1P) <= W)
+            a = a[np.sqrt(2 * rb1 * c1.sigma[a]) <= self.L_tip[0] + 1e-12]
+            U0 = (s2P + s1P - c2.sigma[0] - c1.sigma[0]) / d
+            fa0 = math.floor(U0)
+            w = U0 - fa0
+            fa = fa0 - a
+            keep = (fa >= 0) & (fa + 1 <= n2 - 1)
+            a, fa = a[keep], fa[keep]
+            s2 = c2.sigma[0] + (fa + w) * d
+            keep = np.sqrt(2 * rb2 * s2) <= self.L_tip[1] + 1e-12
+            a, fa, s2 = a[keep], fa[keep], s2[keep]
+            if a.size:
+                t = c1.sigma[a] - s1P
+                L1 = np.sqrt(2 * rb1 * c1.sigma[a])
+                L2 = np.sqrt(2 * rb2 * s2)
+                gap = (_drop(t, L1P, rb1, 1.0) + _drop(t, L2P, rb2, -1.0) + profile_removal(pr, 0, L1)
+                       + profile_removal(pr, 1, L2) + extra)
+                ones = np.ones(a.size)
+                parts.append((a, 0 * ones, fa, w * ones, gap, ones, L1, np.abs(t) >= W - 1.01 * d, ones < 0))
+            # tip edge roundings against the mate's involute (premature / prolonged contact)
+            for g in (1, 0):
+                if self.rounded[g]:
+                    e = self._edge_candidates(g, L1P, L2P, extra)
+                    if e is not None:
+                        i1, w1, i2, w2, gap, lam, roll, end = e
+                        parts.append((i1, w1, i2, w2, gap, lam, roll, np.zeros(i1.size, bool), end))
+            if not parts:
+                continue
+            i1, w1, i2, w2, gap, lam, roll, edge, end = (np.concatenate(x) for x in zip(*parts))
+            h = gap / lam
+            # the gap at the ideal contact point itself (t = 0) when it lies on both involutes
+            on = (c1.sigma[0] <= s1P <= c1.sigma[n1 - 1] and L1P <= self.L_tip[0] and c2.sigma[0] <= s2P <= c2.sigma[n2 - 1]
                   and L2P <= self.L_tip[1])
             g0 = float(profile_removal(pr, 0, np.array([L1P]))[0] + profile_removal(pr, 1, np.array([L2P]))[0]
                        + extra) if on else np.inf
-            out.append((int(p), a, fa, w, gap, L1, np.abs(t) >= W - 1.01 * d, min(g0, float(gap.min()))))
+            out.append((int(p), i1.astype(int), i2.astype(int), w2, h, roll, edge, min(g0, float(h.min())), w1, lam, end))
         return out
 
     def compliance_matrix(self, cands) -> np.ndarray:
-        """Compliance [m/N] between all candidates (both gears, cyclic symmetry)."""
+        """Compliance [m/N] between all candidates (both gears, cyclic symmetry), in line-of-action
+        units (scaled by 1 / (lambda_k lambda_l), see :meth:`candidates`)."""
         c1, c2 = self.c
         n = sum(c[1].size for c in cands)
         C = np.zeros((n, n))
         starts = np.cumsum([0] + [c[1].size for c in cands])
-        for i, (p, a, fa, w, *_) in enumerate(cands):
-            for j, (q, b, fb, v, *_) in enumerate(cands):
-                G1, G2 = c1.block(p - q), c2.block(q - p)
-                blk = G1[np.ix_(a, b)]
-                if p == q:
-                    blk = blk + (1 - w) * G2[np.ix_(fa, fb)] + w * G2[np.ix_(fa + 1, fb + 1)]
-                else:
-                    blk = blk + ((1 - w) * (1 - v) * G2[np.ix_(fa, fb)] + (1 - w) * v * G2[np.ix_(fa, fb + 1)]
-                                 + w * (1 - v) * G2[np.ix_(fa + 1, fb)] + w * v * G2[np.ix_(fa + 1, fb + 1)])
+        for i, ci in enumerate(cands):
+            p, a, fa, w, w1a = ci[0], ci[1], ci[2], ci[3], ci[8]
+            for j, cj in enumerate(cands):
+                q, b, fb, v, w1b = cj[0], cj[1], cj[2], cj[3], cj[8]
+                blk = _interp(c1.block(p - q), a, w1a, b, w1b) + _interp(c2.block(q - p), fa, w, fb, v)
                 C[starts[j]:starts[j + 1], starts[i]:starts[i + 1]] = blk.T  # rows: response, cols: load
+        lam = np.concatenate([c[9] for c in cands])
+        C /= np.outer(lam, lam)
         return 0.5 * (C + C.T)
 
     # --------------------------------------------------------------- solve
@@ -211,6 +318,8 @@ class SpurLTCA:
             pid = np.concatenate([np.full(c[1].size, c[0]) for c in cands])
             roll = np.concatenate([c[5] for c in cands])
             edge = np.concatenate([c[6] for c in cands])
+            lam = np.concatenate([c[9] for c in cands])
+            end = np.concatenate([c[10] for c in cands])
             kin = min(c[7] for c in cands)
             results, grow = [], False
             for tq in torques:
@@ -219,12 +328,16 @@ class SpurLTCA:
                 if np.any(sol.f[edge] > 1e-9 * F):
                     grow = True
                     break
+                if np.any(sol.f[end] > 1e-9 * F):
+                    raise SolverError(f"contact reaches the end of the flank grid on the tip edge rounding{where} "
+                                      f"at {tq:.4g} N m (extend gearrom.fe.compliance.EDGE_GRID_FRACTION)")
                 if sol.gap.min() < -self.tol:
                     raise SolverError(f"penetration {-sol.gap.min() * 1e6:.3g} um{where} exceeds {self.tol * 1e6:.3g} um")
                 width = self.c[0].spacing * self.c[0].face_width
                 pf = np.array([sol.f[pid == p].sum() for p in self.pair_range])
+                fn = sol.f / lam  # normal contact forces (sol.f: line-of-action equivalents)
                 results.append(PositionResult(theta=theta, torque=tq, ste=sol.delta, ste_kinematic=kin, force=F,
-                                              pair=pid, roll1=roll, force_c=sol.f, pressure=sol.f / width,
+                                              pair=pid, roll1=roll, force_c=fn, pressure=fn / width,
                                               pairs=self.pair_range.copy(), pair_force=pf))
             if not grow:
                 return results

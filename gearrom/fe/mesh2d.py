@@ -12,6 +12,7 @@ Tooth numbering: tooth ``j`` is tooth 0 (centred on +y) rotated by ``+j * 2 pi /
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import logging
 import math
 import os
@@ -23,7 +24,8 @@ from gearrom.errors import MeshError
 
 log = logging.getLogger(__name__)
 
-SEGMENT_NAMES = ("root", "fillet", "involute", "tip")
+SEGMENT_NAMES = ("root", "fillet", "involute", "tip", "edge")
+"""Curve names by profile segment label; ``"edge"`` (4) is the tip edge rounding (see :func:`gear_mesh`)."""
 
 
 @dataclass(frozen=True)
@@ -198,7 +200,7 @@ def _finish(gmsh, fields: list[int], algorithm: int = 6) -> None:
         raise MeshError(f"gmsh failed to mesh: {exc}") from None
 
 
-def _clean_profile(prof):
+def clean_profile(prof):
     """Adapter: order the root + fillet points of the left half by polar angle (descending).
 
     ``tooth_profile`` sorts the fillet by radius, which scrambles the points that lie on the
@@ -240,8 +242,14 @@ def _clean_profile(prof):
     )
 
 
-def gear_mesh(pair, i: int, settings: MeshSettings | None = None) -> Mesh2D:
+_clean_profile = clean_profile  # old private name (kept for gearrom.fe.explicit.gearmesh)
+
+
+def gear_mesh(pair, i: int, settings: MeshSettings | None = None, tip_edge_radius: float | None = None) -> Mesh2D:
     """Mesh the whole transverse section of gear ``i`` of ``pair`` (bore to tip).
+
+    The tip edges are rounded (:mod:`gearrom.fe.tipedge`); the rounding of the loaded flank of the
+    refined teeth is meshed as finely as the flank (curves ``"edge_r_{j}"``).
 
     Parameters
     ----------
@@ -251,18 +259,28 @@ def gear_mesh(pair, i: int, settings: MeshSettings | None = None) -> Mesh2D:
         0 input gear, 1 output gear.
     settings : MeshSettings
         Mesh density.
+    tip_edge_radius : float, optional
+        Tip edge rounding radius [m]; default :func:`gearrom.fe.tipedge.tip_edge_radius` (the
+        config's value, else 0.1 m_n). 0 gives sharp tip corners.
 
     Returns
     -------
     Mesh2D
-        Curves ``"{segment}_{l|r}_{j}"`` for the teeth ``|j| <= near_teeth``.
+        Curves ``"{segment}_{l|r}_{j}"`` for the teeth ``|j| <= near_teeth`` (segments
+        :data:`SEGMENT_NAMES`).
     """
+    from gearrom.fe.tipedge import tip_edge_radius as edge_radius
     from gearrom.geometry.profile import rotate, tooth_profile
 
     s = settings or MeshSettings()
     g = pair.gears[i]
     z = g.z
-    prof = _clean_profile(tooth_profile(pair, i, n_involute=80, n_fillet=40, n_tip=8, n_root=8))
+    rho = edge_radius(pair, i)[0] if tip_edge_radius is None else tip_edge_radius
+    prof = clean_profile(tooth_profile(pair, i, n_involute=80, n_fillet=40, n_tip=12, n_root=8, tip_edge_radius=rho))
+    # label the tip edge rounding (tip segment below the tip circle) as its own segment
+    ra = 0.5 * pair.da[i]
+    on_edge = (prof.segment == 3) & (np.hypot(prof.points[:, 0], prof.points[:, 1]) < ra * (1 - 1e-9))
+    prof = dataclasses.replace(prof, segment=np.where(on_edge, 4, prof.segment))
     with gmsh_session(f"gear{i}") as gmsh:
         geo = gmsh.model.geo
         # split each tooth outline into runs of equal (segment, side)
@@ -307,7 +325,8 @@ def gear_mesh(pair, i: int, settings: MeshSettings | None = None) -> Mesh2D:
         hole = geo.addCurveLoop(arcs)
         geo.addPlaneSurface([outer, hole])
         geo.synchronize()
-        fine = [c for j in range(-s.refined_teeth, s.refined_teeth + 1) for c in named.get(f"involute_r_{j}", [])]
+        fine = [c for j in range(-s.refined_teeth, s.refined_teeth + 1) for n in ("involute_r", "edge_r")
+                for c in named.get(f"{n}_{j}", [])]
         fillets = [c for j in range(-s.refined_teeth, s.refined_teeth + 1)
                    for n in ("fillet_r", "fillet_l", "root_r", "root_l") for c in named.get(f"{n}_{j}", [])]
         near = [c for key, cs in named.items() for c in cs]

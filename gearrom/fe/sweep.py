@@ -17,6 +17,7 @@ import json
 import logging
 import os
 import time
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -57,9 +58,11 @@ class StiffnessResult:
     k_secant, k_tangent : ndarray (m, n)
         Mesh stiffness [N/m] (secant, see :data:`DEFINITION`; tangent dF/dSTE by a 0.1 % load step).
     pair_force : ndarray (m, n, p)
-        Force per tooth pair [N]; pair index ``pairs``.
+        Force per tooth pair [N] (its part of the line-of-action force torque / r_b2: the columns
+        sum to it); pair index ``pairs``.
     pairs : ndarray (p,)
-        Pair indices (-1: the next pair, in contact only prematurely; 0 enters at theta = 0...).
+        Consecutive pair indices, every pair that carries load at some position and torque
+        (-1: the next pair, in contact only prematurely; 0 enters at theta = 0...).
     max_pressure : ndarray (m, n)
         Largest contact pressure [Pa].
     """
@@ -85,19 +88,19 @@ class StiffnessResult:
     def to_excitation(self):
         """The hand-off table :class:`gearrom.excitation.table.MeshExcitation` (secant stiffness).
 
-        Its ``load_share`` columns are the pairs 0, 1, ... ; premature contact of the next pair
-        (pair -1) is in k and e but not in a column (see ``metadata["premature_share_max"]``).
+        Its ``load_share`` has one column per tooth pair that carries load somewhere in the table
+        (``MeshExcitation.pairs``; e.g. -1, the next pair touching early, then 0, 1, ...), so the
+        shares sum to 1 at every position.
         """
         from gearrom.excitation.table import MeshExcitation
 
-        keep = self.pairs >= 0
+        keep = _loaded_span(self.pair_force)
         meta = dict(self.metadata)
         meta.setdefault("source", "gearrom.fe LTCA (plane strain influence coefficients)")
         meta["theta_origin"] = "pair 0 enters contact at the input gear's start of active profile"
-        meta["premature_share_max"] = float(self.load_share[..., ~keep].max()) if (~keep).any() else 0.0
         return MeshExcitation(z1=self.z1, theta=self.theta, torque=self.torque, k=self.k_secant, e=self.ste,
                               load_share=self.load_share[..., keep], definition=self.definition,
-                              max_pressure=self.max_pressure, metadata=meta)
+                              max_pressure=self.max_pressure, metadata=meta, pairs=self.pairs[keep])
 
     def summary(self, j: int = -1) -> dict:
         """JSON-ready summary at torque index ``j`` (units in the keys)."""
@@ -170,6 +173,15 @@ class StiffnessResult:
         return fig
 
 
+def _loaded_span(pair_force: np.ndarray) -> np.ndarray:
+    """Boolean mask of the consecutive pair columns from the first to the last that carries load."""
+    loaded = np.flatnonzero(pair_force.max(axis=(0, 1)) > 0)
+    mask = np.zeros(pair_force.shape[2], bool)
+    if loaded.size:
+        mask[loaded[0]:loaded[-1] + 1] = True
+    return mask
+
+
 def build_ltca(pair, settings: MeshSettings | None = None, cache_dir: str | Path | None | bool = True,
                window: float = 0.4e-3, n_slices: int = 24) -> SpurLTCA:
     """Compliances of both gears (cached) and the LTCA object.
@@ -217,6 +229,12 @@ def mesh_cycle(ltca: SpurLTCA, torques, n_positions: int = 64, mesh_index: int =
             pmax[j, i] = r.max_pressure
             pf[j, i] = r.pair_force
             kt[j, i] = (eps * r.force / (res[m + j].ste - r.ste)) if tangent else np.nan
+    pairs = ltca.pair_range.copy()
+    span = _loaded_span(pf)
+    if span[0] or span[-1]:
+        warnings.warn(f"tooth pair {pairs[0] if span[0] else pairs[-1]} at the end of the LTCA pair range carries "
+                      "load: contact may extend to pairs outside the range", stacklevel=2)
+    pf, pairs = pf[..., span], pairs[span]
     meta = {"n_positions": n, "solve_time_s": time.perf_counter() - t0, "mesh_index": mesh_index,
             "compliance_info": [c.info for c in ltca.c], "model": type(ltca).__name__}
     meta.update(metadata or {})
@@ -224,7 +242,7 @@ def mesh_cycle(ltca: SpurLTCA, torques, n_positions: int = 64, mesh_index: int =
     if ltca.pair.is_helical:
         definition = DEFINITION + f"; helical: {getattr(ltca, 'n_slices', 0)} uncoupled transverse slices"
     return StiffnessResult(z1=ltca.pair.z[0], theta=theta, torque=torques, ste=ste, ste_kinematic=kin, k_secant=ks,
-                           k_tangent=kt, pair_force=pf, pairs=ltca.pair_range.copy(), max_pressure=pmax,
+                           k_tangent=kt, pair_force=pf, pairs=pairs, max_pressure=pmax,
                            definition=definition, metadata=meta)
 
 

@@ -25,7 +25,7 @@ def models():
     return pair, build_ltca(pair, SETTINGS, cache_dir=None), FullContactModel(pair, SETTINGS)
 
 
-@pytest.mark.parametrize("fraction, torque", [(0.1, 120.0), (0.5, 120.0), (0.93, 20.0)])
+@pytest.mark.parametrize("fraction, torque", [(0.1, 120.0), (0.5, 120.0), (0.93, 60.0)])
 def test_full_fe_contact_matches_ltca(models, fraction, torque):
     pair, ltca, full = models
     theta = fraction * ltca.period

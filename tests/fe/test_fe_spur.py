@@ -60,18 +60,46 @@ def test_single_pair_stiffness_vs_iso6336(pair, ltca):
     assert 0.75 <= ratio <= 1.25
 
 
-def test_single_double_alternation_follows_eps_alpha(pair, cycle):
-    """At a light load the pair count switches at (eps_alpha - 1) p_bt and at p_bt (64 positions)."""
-    share = cycle.load_share[0]
-    # index 0 is the switching point itself (the entering pair touches with its tip corner only)
-    single = np.flatnonzero(share[1:].max(axis=1) > 0.999) + 1
-    start = (pair.eps_alpha - 1) * 64
-    assert single.size > 0
-    assert abs(single[0] - start) <= 1.5
-    assert single[-1] == 63
-    assert np.all(np.diff(single) == 1)
+def _usable_tip_pair(pair, ltca):
+    """The pair with its usable tip diameters d_Na where the tip edge roundings start (ISO 21771:
+    the path of contact ends at d_Na when the tip edge is broken or rounded)."""
+    gears = []
+    for i, g in enumerate(pair.gears):
+        d_na = 2 * math.hypot(pair.rb[i], ltca.arcs[i].L_t)
+        gears.append(dataclasses.replace(g, micro=dataclasses.replace(g.micro, enabled=True, tip_form_diameter=d_na)))
+    return dataclasses.replace(pair, gears=tuple(gears))
+
+
+def test_single_double_alternation_follows_eps_alpha(pair, ltca, cycle):
+    """At a light load (1 N m) one pair carries everything from the end of the leaving pair's involute
+    contact to the start of the entering pair's, at the positions given by eps_alpha (GearPair,
+    ISO 21771) computed with the usable tip diameters d_Na (start of the tip edge roundings).
+    64 positions per mesh period; one position of tolerance at the two switching points."""
+    eff = _usable_tip_pair(pair, ltca)
+    n = 64
+    enter = (eff.roll_start_active[0] - pair.roll_start_active[0]) / pair.pb_t * n  # entering pair's first touch
+    leave = enter + (eff.eps_alpha - 1) * n  # leaving pair's last touch
+    assert 1.0 < enter < 8.0 and pair.eps_alpha - eff.eps_alpha > 0.05  # the roundings shorten the path
+    single = cycle.load_share[0].max(axis=1) > 0.999
+    pos = np.arange(n)
+    expected = (pos > leave) | (pos < enter)
+    wrong = pos[single != expected]
+    assert np.all(np.minimum(np.abs(wrong - enter), np.abs(wrong - leave)) <= 1.5), wrong
     # STE is larger in single contact than in double contact
-    assert cycle.ste[0, single].mean() > 1.3 * cycle.ste[0, : int(start) - 2].mean()
+    assert cycle.ste[0, single].mean() > 1.3 * cycle.ste[0, ~single].mean()
+
+
+def test_load_shares_sum_to_one_with_early_contact(pair, cycle):
+    """Every pair that carries load has a column (reference: force balance, the pair forces add up
+    to torque / r_b2); at the design load the next pair touches early with its rounded tip edge
+    (pair -1), before the nominal start of contact at theta = 0."""
+    ex = cycle.to_excitation()
+    np.testing.assert_allclose(ex.load_share.sum(axis=2), 1.0, atol=1e-9)
+    assert list(ex.pairs) == list(cycle.pairs) and ex.pairs[0] == -1
+    early = ex.share_of(-1)[1]
+    assert early.max() > 0.05
+    # the early touch happens late in the period (just before pair -1 becomes pair 0 at theta = 0)
+    assert np.all(early[: ex.n_theta // 2] == 0)
 
 
 def test_kinematic_te_zero_for_perfect_gears(cycle):
@@ -116,6 +144,6 @@ def test_result_roundtrip_and_excitation(cycle, tmp_path):
     np.testing.assert_array_equal(back.ste, cycle.ste)
     ex = back.to_excitation()
     assert ex.mean_stiffness(120.0) == pytest.approx(cycle.k_secant[1].mean(), rel=1e-9)
-    assert ex.load_share.shape == (2, 64, cycle.pairs.size - 1)
+    assert ex.load_share.shape == (2, 64, cycle.pairs.size)
     fig = cycle.plot()
     assert len(fig.axes) == 4
