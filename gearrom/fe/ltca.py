@@ -42,6 +42,14 @@ log = logging.getLogger(__name__)
 EDGE_GAP_MAX = 0.2e-3
 """Tip edge points farther than this from the mate's flank [m] are not contact candidates."""
 
+EDGE_CANDIDATE_SPAN = 0.1e-3
+"""Candidates on a tip edge rounding span +- this arc length around its closest point [m]
+(gap s^2 / 2R of about 35 um at the end for R ~ 0.14 mm)."""
+
+EDGE_PHI_WARN = 0.5
+"""A loaded last grid point on the rounding beyond this fraction of the rounding's angle is an error
+(the contact may run off the grid, which covers ``compliance.EDGE_GRID_FRACTION`` of it)."""
+
 _GX, _GW = np.polynomial.legendre.leggauss(8)
 _GX, _GW = 0.5 * (_GX + 1), 0.5 * _GW
 
@@ -176,26 +184,40 @@ class SpurLTCA:
     def _edge_candidates(self, g: int, L1P: float, L2P: float, base_gap: float):
         """Contact of the tip edge rounding of gear ``g`` with the mate's involute (exact plane geometry).
 
-        Slave points: the grid points on the rounding of gear ``g``; master: the involute of the other
-        gear (closest-point projection along its normal, which is tangent to its base circle). Returns
-        (i1, w1, i2, w2, gap, lam, roll1, end) or None; ``gap`` is the normal gap [m], ``lam`` the
-        normal displacement of the contact per unit rigid approach along the line of action (1 when the
-        master is the output gear's involute; the output gear's lever arm of the contact normal over
-        r_b2 otherwise).
+        The rounding's point closest to the mate's involute is found exactly (its centre projected on
+        the involute along the involute's normal, which is tangent to the mate's base circle);
+        candidates sit there and at multiples of the grid spacing on either side along the rounding
+        (compliances interpolated between grid points), so the first touch and the gap function
+        ``s^2 / 2R`` of the small rounding radius are not sampled at arbitrary grid points. Each
+        candidate is projected on the mate's involute (the master). Returns (i1, w1, i2, w2, gap, lam,
+        roll1, end, u_min) or None (``u_min``: the first candidate's flank coordinate on the rounding [m],
+        the involute-involute candidates stop half a spacing before it); ``gap`` is the normal gap [m], ``lam`` the normal displacement of the
+        contact per unit rigid approach along the line of action (1 when the master is the output
+        gear's involute; the output gear's lever arm of the contact normal over r_b2 otherwise).
         """
         pr = self.pair
         c, cm = self.c[g], self.c[1 - g]
         arc = self.arcs[g]
+        h = c.spacing
         frames = self._frames(L1P, L2P)
-        k = np.arange(self.n_inv[g], c.sigma.size)
-        phi = (c.sigma[k] - c.u_edge) / arc.rho
+        centre = frames[g].arc_points(arc, np.array([0.0])) - arc.rho * frames[g].basis(np.array([arc.L_t]))[1]
+        _, _, n0 = frames[1 - g].project(centre)
+        ug, eg = frames[g].basis(np.array([arc.L_t]))
+        phi0 = math.atan2(-n0[0] @ ug[0], -n0[0] @ eg[0])  # rounding angle of the closest point
+        u_lo, u_hi = c.u_edge, c.sigma[-1]
+        K = int(math.ceil(EDGE_CANDIDATE_SPAN / h))
+        u = c.u_edge + arc.rho * phi0 + h * np.arange(-K, K + 1)
+        u = u[(u >= u_lo) & (u <= u_hi)]
+        if u.size == 0:
+            return None
+        phi = (u - c.u_edge) / arc.rho
         q = frames[g].arc_points(arc, phi)
         d, Lf, n = frames[1 - g].project(q)
         if g == 1:  # master = input involute: lever arm of the normal about the output centre
             r = q - frames[1].o
             lam = (-r[:, 1] * n[:, 0] + r[:, 0] * n[:, 1]) / c.rb
         else:
-            lam = np.ones(k.size)
+            lam = np.ones(u.size)
         U = (Lf**2 / (2 * cm.rb) - cm.sigma[0]) / cm.spacing
         im = np.floor(U).astype(int)
         wm = U - im
@@ -203,14 +225,16 @@ class SpurLTCA:
                 & (lam > 0.1))
         if not keep.any():
             return None
-        k, im, wm, d, Lf, lam, phi = k[keep], im[keep], wm[keep], d[keep], Lf[keep], lam[keep], phi[keep]
-        L_own = np.full(k.size, self.arcs[g].L_t)
+        u, im, wm, d, Lf, lam, phi = u[keep], im[keep], wm[keep], d[keep], Lf[keep], lam[keep], phi[keep]
+        Us = (u - c.sigma[0]) / h
+        io = np.minimum(np.floor(Us).astype(int), c.sigma.size - 2)
+        wo = Us - io
+        L_own = np.full(u.size, arc.L_t)
         gap = d + base_gap + profile_removal(pr, g, L_own) + profile_removal(pr, 1 - g, Lf)
-        end = k == c.sigma.size - 1
-        zero = np.zeros(k.size)
+        end = (u > u_hi - h) & (phi >= EDGE_PHI_WARN * arc.phi_full)
         if g == 1:
-            return im, wm, k, zero, gap, lam, Lf, end
-        return k, zero, im, wm, gap, lam, np.sqrt(2 * c.rb * c.sigma[k]), end
+            return im, wm, io, wo, gap, lam, Lf, end, float(u.min())
+        return io, wo, im, wm, gap, lam, np.sqrt(2 * c.rb * u), end, float(u.min())
 
     def candidates(self, theta: float, mesh_index: int = 0, window: float | None = None, only=None):
         """Contact candidates per pair at ``theta``.
@@ -240,9 +264,18 @@ class SpurLTCA:
             extra = (pitch_removal(pr, 0, tooth) + pitch_removal(pr, 1, tooth)
                      + runout_removal(pr, 0, r1) + runout_removal(pr, 1, r1 * pr.z[0] / pr.z[1]))
             parts = []
+            # tip edge roundings against the mate's involute (premature / prolonged contact)
+            edge_parts, u_stop = [], [np.inf, np.inf]
+            for g in (1, 0):
+                if self.rounded[g]:
+                    e = self._edge_candidates(g, L1P, L2P, extra)
+                    if e is not None:
+                        i1, w1, i2, w2, gap, lam, roll, end, u_min = e
+                        edge_parts.append((i1, w1, i2, w2, gap, lam, roll, np.zeros(i1.size, bool), end))
+                        u_stop[g] = u_min - 0.5 * d
             # involute against involute, around the ideal contact point on the line of action
             s1P, s2P = L1P**2 / (2 * rb1), L2P**2 / (2 * rb2)
-            a = np.flatnonzero(np.abs(c1.sigma[:n1] - s1P) <= W)
+            a = np.flatnonzero((np.abs(c1.sigma[:n1] - s1P) <= W) & (c1.sigma[:n1] <= u_stop[0]))
             a = a[np.sqrt(2 * rb1 * c1.sigma[a]) <= self.L_tip[0] + 1e-12]
             U0 = (s2P + s1P - c2.sigma[0] - c1.sigma[0]) / d
             fa0 = math.floor(U0)
@@ -251,7 +284,7 @@ class SpurLTCA:
             keep = (fa >= 0) & (fa + 1 <= n2 - 1)
             a, fa = a[keep], fa[keep]
             s2 = c2.sigma[0] + (fa + w) * d
-            keep = np.sqrt(2 * rb2 * s2) <= self.L_tip[1] + 1e-12
+            keep = (np.sqrt(2 * rb2 * s2) <= self.L_tip[1] + 1e-12) & (s2 <= u_stop[1])
             a, fa, s2 = a[keep], fa[keep], s2[keep]
             if a.size:
                 t = c1.sigma[a] - s1P
@@ -261,13 +294,7 @@ class SpurLTCA:
                        + profile_removal(pr, 1, L2) + extra)
                 ones = np.ones(a.size)
                 parts.append((a, 0 * ones, fa, w * ones, gap, ones, L1, np.abs(t) >= W - 1.01 * d, ones < 0))
-            # tip edge roundings against the mate's involute (premature / prolonged contact)
-            for g in (1, 0):
-                if self.rounded[g]:
-                    e = self._edge_candidates(g, L1P, L2P, extra)
-                    if e is not None:
-                        i1, w1, i2, w2, gap, lam, roll, end = e
-                        parts.append((i1, w1, i2, w2, gap, lam, roll, np.zeros(i1.size, bool), end))
+            parts += edge_parts
             if not parts:
                 continue
             i1, w1, i2, w2, gap, lam, roll, edge, end = (np.concatenate(x) for x in zip(*parts))
