@@ -183,16 +183,26 @@ def _loaded_span(pair_force: np.ndarray) -> np.ndarray:
 
 
 def build_ltca(pair, settings: MeshSettings | None = None, cache_dir: str | Path | None | bool = True,
-               window: float = 0.4e-3, n_slices: int = 24) -> SpurLTCA:
+               window: float = 0.4e-3, n_slices: int = 24, helical_model: str = "3d", settings3d=None) -> SpurLTCA:
     """Compliances of both gears (cached) and the LTCA object.
 
     ``cache_dir=True`` uses :func:`default_cache_dir`, ``None``/``False`` disables the cache.
-    Helical pairs get :class:`gearrom.fe.helical.HelicalSliceLTCA` (uncoupled transverse slices,
-    an approximation of the 3D model) with a warning.
+    Helical pairs: ``helical_model="3d"`` (default) gives :class:`gearrom.fe.helical3d.Helical3DLTCA`
+    (3D FE compliances of each gear, mesh ``settings3d``: :class:`gearrom.fe.mesh3d.Mesh3DSettings`);
+    ``"slices"`` the uncoupled transverse slices :class:`gearrom.fe.helical.HelicalSliceLTCA` (an
+    approximation, with a warning).
     """
     if cache_dir is True:
         cache_dir = default_cache_dir()
     cache = cache_dir or None
+    if pair.is_helical and helical_model not in ("3d", "slices"):
+        from gearrom.errors import ModelError
+
+        raise ModelError(f"helical_model must be '3d' or 'slices', got {helical_model!r}")
+    if pair.is_helical and helical_model == "3d":
+        from gearrom.fe.helical3d import build_helical3d
+
+        return build_helical3d(pair, settings3d, cache, n_slices=n_slices)
     comps = tuple(cached_compliance(pair, i, settings, cache_dir=cache) for i in range(2))
     if pair.is_helical:
         import warnings
@@ -240,7 +250,8 @@ def mesh_cycle(ltca: SpurLTCA, torques, n_positions: int = 64, mesh_index: int =
     meta.update(metadata or {})
     definition = DEFINITION
     if ltca.pair.is_helical:
-        definition = DEFINITION + f"; helical: {getattr(ltca, 'n_slices', 0)} uncoupled transverse slices"
+        definition = DEFINITION + "; helical: " + getattr(
+            ltca, "model_description", f"{getattr(ltca, 'n_slices', 0)} uncoupled transverse slices")
     return StiffnessResult(z1=ltca.pair.z[0], theta=theta, torque=torques, ste=ste, ste_kinematic=kin, k_secant=ks,
                            k_tangent=kt, pair_force=pf, pairs=pairs, max_pressure=pmax,
                            definition=definition, metadata=meta)

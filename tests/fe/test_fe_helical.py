@@ -31,7 +31,7 @@ def helical(tmp_path_factory):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         pair = load_config("thesis-helical").pair
-        ltca = build_ltca(pair, COARSE, cache_dir=tmp_path_factory.mktemp("h"), n_slices=16)
+        ltca = build_ltca(pair, COARSE, cache_dir=tmp_path_factory.mktemp("h"), n_slices=16, helical_model="slices")
     return pair, ltca, mesh_cycle(ltca, [120.0], 32, tangent=False)
 
 
