@@ -31,7 +31,8 @@ log = logging.getLogger(__name__)
 
 DEFINITION = ("secant k = F_t / (STE - STE_kinematic) per position; F_t = torque / r_b2; transverse line of action; "
               "both gears: tooth bending + shear + fillet + rim/body down to a rigid bore + Hertzian contact "
-              "(resolved flank mesh); no shaft/bearing compliance")
+              "(resolved flank mesh); tip edges rounded (config tip_edge_radius_mm, default 0.1 m_n), contact on the "
+              "roundings off the line of action included; no shaft/bearing compliance")
 
 
 def default_cache_dir() -> Path:
