@@ -201,13 +201,76 @@ def contact_forces_2d(x, v, slaves, s_pair, segs, g_k, cand, ncand, p_mu, p_vreg
     return epot, pfric
 
 
-@njit(cache=True, fastmath=True)
-def contact_forces_3d(x, v, slaves, s_pair, segs, g_k, cand, ncand, p_mu, p_vreg, p_depth, f, gap):
-    """Add 3D node-to-bilinear-facet penalty/friction forces to ``f``; see :func:`contact_forces_2d`."""
-    epot = 0.0
-    pfric = 0.0
+@njit(cache=True, fastmath=True, inline="always")
+def _facet_point(x, segs, s, xi, eta):
+    """Point, tangents d/dxi, d/deta of bilinear facet ``s`` at (xi, eta)."""
     sx = (-1.0, 1.0, 1.0, -1.0)
     sy = (-1.0, -1.0, 1.0, 1.0)
+    p0 = 0.0; p1 = 0.0; p2 = 0.0
+    a0 = 0.0; a1 = 0.0; a2 = 0.0
+    c0 = 0.0; c1 = 0.0; c2 = 0.0
+    for q in range(4):
+        nd = segs[s, q]
+        w = 0.25 * (1 + sx[q] * xi) * (1 + sy[q] * eta)
+        wx = 0.25 * sx[q] * (1 + sy[q] * eta)
+        wy = 0.25 * sy[q] * (1 + sx[q] * xi)
+        p0 += w * x[nd, 0]; p1 += w * x[nd, 1]; p2 += w * x[nd, 2]
+        a0 += wx * x[nd, 0]; a1 += wx * x[nd, 1]; a2 += wx * x[nd, 2]
+        c0 += wy * x[nd, 0]; c1 += wy * x[nd, 1]; c2 += wy * x[nd, 2]
+    return p0, p1, p2, a0, a1, a2, c0, c1, c2
+
+
+@njit(cache=True, fastmath=True)
+def facet_closest(x, segs, s, n):
+    """Closest point of bilinear facet ``s`` to node ``n``: (xi, eta, distance, inside_zone).
+
+    Newton on the unconstrained projection; a coordinate outside [-1, 1] is clamped and the other
+    re-projected along that edge (``inside_zone`` False: the closest point is on the facet border).
+    """
+    xi = 0.0
+    eta = 0.0
+    for it in range(8):
+        p0, p1, p2, a0, a1, a2, c0, c1, c2 = _facet_point(x, segs, s, xi, eta)
+        r0 = x[n, 0] - p0; r1 = x[n, 1] - p1; r2 = x[n, 2] - p2
+        g11 = a0 * a0 + a1 * a1 + a2 * a2
+        g22 = c0 * c0 + c1 * c1 + c2 * c2
+        g12 = a0 * c0 + a1 * c1 + a2 * c2
+        b1 = r0 * a0 + r1 * a1 + r2 * a2
+        b2 = r0 * c0 + r1 * c1 + r2 * c2
+        det = g11 * g22 - g12 * g12
+        dxi = (g22 * b1 - g12 * b2) / det
+        deta = (g11 * b2 - g12 * b1) / det
+        xi += dxi
+        eta += deta
+        if abs(dxi) + abs(deta) < 1e-10:
+            break
+    inside = abs(xi) <= 1.0 and abs(eta) <= 1.0
+    if not inside:
+        # clamp, then re-project the free coordinate along the border (twice: a corner may follow)
+        for rep in range(2):
+            xi = min(max(xi, -1.0), 1.0)
+            eta = min(max(eta, -1.0), 1.0)
+            p0, p1, p2, a0, a1, a2, c0, c1, c2 = _facet_point(x, segs, s, xi, eta)
+            r0 = x[n, 0] - p0; r1 = x[n, 1] - p1; r2 = x[n, 2] - p2
+            if abs(xi) == 1.0 and abs(eta) < 1.0:
+                eta += (r0 * c0 + r1 * c1 + r2 * c2) / (c0 * c0 + c1 * c1 + c2 * c2)
+            elif abs(eta) == 1.0 and abs(xi) < 1.0:
+                xi += (r0 * a0 + r1 * a1 + r2 * a2) / (a0 * a0 + a1 * a1 + a2 * a2)
+        xi = min(max(xi, -1.0), 1.0)
+        eta = min(max(eta, -1.0), 1.0)
+    p0, p1, p2, a0, a1, a2, c0, c1, c2 = _facet_point(x, segs, s, xi, eta)
+    r0 = x[n, 0] - p0; r1 = x[n, 1] - p1; r2 = x[n, 2] - p2
+    return xi, eta, math.sqrt(r0 * r0 + r1 * r1 + r2 * r2), inside
+
+
+@njit(cache=True, fastmath=True)
+def contact_forces_3d(x, v, slaves, s_pair, segs, g_k, cand, ncand, p_mu, p_vreg, p_depth, f, gap):
+    """Add 3D node-to-bilinear-facet penalty/friction forces to ``f``; see :func:`contact_forces_2d`.
+
+    The closest feature of the master surface (clamped projection) gives the signed distance, as in 2D.
+    """
+    epot = 0.0
+    pfric = 0.0
     for i in range(slaves.shape[0]):
         gap[i] = 0.0
         if ncand[i] == 0:
@@ -216,50 +279,28 @@ def contact_forces_3d(x, v, slaves, s_pair, segs, g_k, cand, ncand, p_mu, p_vreg
         p = s_pair[i]
         depth = p_depth[p]
         best = -1
-        bg = 0.0
-        bn0 = 0.0; bn1 = 0.0; bn2 = 0.0
+        bd = 0.0
+        bin_ = False
         bxi = 0.0; beta = 0.0
         for m in range(ncand[i]):
             s = cand[i, m]
-            xi = 0.0
-            eta = 0.0
-            g = 0.0
-            n0 = 0.0; n1 = 0.0; n2 = 0.0
-            for it in range(6):
-                p0 = 0.0; p1 = 0.0; p2 = 0.0
-                a0 = 0.0; a1 = 0.0; a2 = 0.0
-                c0 = 0.0; c1 = 0.0; c2 = 0.0
-                for q in range(4):
-                    nd = segs[s, q]
-                    w = 0.25 * (1 + sx[q] * xi) * (1 + sy[q] * eta)
-                    wx = 0.25 * sx[q] * (1 + sy[q] * eta)
-                    wy = 0.25 * sy[q] * (1 + sx[q] * xi)
-                    p0 += w * x[nd, 0]; p1 += w * x[nd, 1]; p2 += w * x[nd, 2]
-                    a0 += wx * x[nd, 0]; a1 += wx * x[nd, 1]; a2 += wx * x[nd, 2]
-                    c0 += wy * x[nd, 0]; c1 += wy * x[nd, 1]; c2 += wy * x[nd, 2]
-                r0 = x[n, 0] - p0; r1 = x[n, 1] - p1; r2 = x[n, 2] - p2
-                g11 = a0 * a0 + a1 * a1 + a2 * a2
-                g22 = c0 * c0 + c1 * c1 + c2 * c2
-                g12 = a0 * c0 + a1 * c1 + a2 * c2
-                b1 = r0 * a0 + r1 * a1 + r2 * a2
-                b2 = r0 * c0 + r1 * c1 + r2 * c2
-                det = g11 * g22 - g12 * g12
-                dxi = (g22 * b1 - g12 * b2) / det
-                deta = (g11 * b2 - g12 * b1) / det
-                xi += dxi
-                eta += deta
-                n0 = a1 * c2 - a2 * c1; n1 = a2 * c0 - a0 * c2; n2 = a0 * c1 - a1 * c0
-                nl = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
-                n0 /= nl; n1 /= nl; n2 /= nl
-                g = r0 * n0 + r1 * n1 + r2 * n2
-                if abs(dxi) + abs(deta) < 1e-10:
-                    break
-            if abs(xi) > 1.0 + 2 * SEG_TOL or abs(eta) > 1.0 + 2 * SEG_TOL:
-                continue
-            if g < 0.0 and g > -depth and (best < 0 or g > bg):
-                best = s; bg = g
-                bn0 = n0; bn1 = n1; bn2 = n2
-                bxi = min(max(xi, -1.0), 1.0); beta = min(max(eta, -1.0), 1.0)
+            xi, eta, d, inside = facet_closest(x, segs, s, n)
+            if best < 0 or d < bd * (1 - 1e-12) or (d <= bd * (1 + 1e-12) and inside and not bin_):
+                best = s; bd = d; bin_ = inside; bxi = xi; beta = eta
+        if best < 0:
+            continue
+        p0, p1, p2, a0, a1, a2, c0, c1, c2 = _facet_point(x, segs, best, bxi, beta)
+        n0 = a1 * c2 - a2 * c1; n1 = a2 * c0 - a0 * c2; n2 = a0 * c1 - a1 * c0
+        nl = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+        n0 /= nl; n1 /= nl; n2 /= nl
+        r0 = x[n, 0] - p0; r1 = x[n, 1] - p1; r2 = x[n, 2] - p2
+        if r0 * n0 + r1 * n1 + r2 * n2 >= 0.0 or bd >= depth:
+            continue   # outside the master body, or deeper than the capture depth
+        bg = -bd
+        if not bin_ and bd > 1e-9 * math.sqrt(nl):
+            bn0 = -r0 / bd; bn1 = -r1 / bd; bn2 = -r2 / bd   # border zone: towards the closest point
+        else:
+            bn0 = n0; bn1 = n1; bn2 = n2
         if best < 0:
             continue
         N0 = 0.25 * (1 - bxi) * (1 - beta)
