@@ -89,7 +89,7 @@ def test_single_double_alternation_follows_eps_alpha(pair, ltca, cycle):
     assert cycle.ste[0, single].mean() > 1.3 * cycle.ste[0, ~single].mean()
 
 
-def test_load_shares_sum_to_one_with_early_contact(pair, cycle):
+def test_load_shares_sum_to_one_with_early_contact(pair, cycle, tmp_path):
     """Every pair that carries load has a column (reference: force balance, the pair forces add up
     to torque / r_b2); at the design load the next pair touches early with its rounded tip edge
     (pair -1), before the nominal start of contact at theta = 0."""
@@ -100,6 +100,11 @@ def test_load_shares_sum_to_one_with_early_contact(pair, cycle):
     assert early.max() > 0.05
     # the early touch happens late in the period (just before pair -1 becomes pair 0 at theta = 0)
     assert np.all(early[: ex.n_theta // 2] == 0)
+    from gearrom.excitation.table import MeshExcitation
+
+    back = MeshExcitation.load(ex.save(tmp_path / "ex.nc"))
+    np.testing.assert_array_equal(back.pairs, ex.pairs)
+    np.testing.assert_array_equal(back.share_of(-1), ex.share_of(-1))
 
 
 def _richardson(f1: float, f2: float, f3: float, r: float) -> tuple[float, float]:
