@@ -108,7 +108,8 @@ def summarise(rows: list[dict], memory_MB: float) -> None:
         f"{figures['mean_stiffness_N_per_um']['observed_order']:.2f} on the three finest meshes), default "
         f"{figures['mean_stiffness_N_per_um']['default_deviation_percent']:+.2f} % from the Richardson value; STE "
         f"peak-to-peak stays within a {figures['ste_ptp_um']['spread_three_finest_percent']:.2f} % band over the "
-        "three finest meshes (changes alternate in sign: no asymptotic order is resolvable at that level), default "
+        "three finest meshes (changes of 0.1-0.25 % per level without a consistent ratio: no asymptotic order is "
+        "resolvable at that level), default "
         f"{figures['ste_ptp_um']['default_deviation_percent']:+.2f} % from the finest; the peak pressure (on the "
         "tip edge rounding) saturates once the flank grid resolves the Hertz width of the 0.15 mm rounding")
     figures["note"] = ("2 cores shared with other helpers' jobs; sizes scaled together (flank, tooth, body, grid); "
