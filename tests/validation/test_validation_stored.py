@@ -68,6 +68,58 @@ def test_rom_within_issue_tolerances(report, rpm):
     assert s.passed, "; ".join(s.misses)
 
 
+# ---- helical pair: 3D Hex8 explicit FE (validation/run_explicit_helical.py, coarser mesh, >= 5 periods)
+HELICAL_MISSES: dict[int, str] = {     # rpm -> measured miss (from the committed helical references)
+}
+
+
+def _have_helical(rpm: int) -> bool:
+    return all((DEFAULT_FE_DIR / f"helical_{rpm}rpm{ext}").is_file() for ext in (".npz", ".json"))
+
+
+@pytest.fixture(scope="module")
+def helical_report():
+    from gearrom.validation.report import validate
+
+    rpms = [r for r in RPMS if _have_helical(r)]
+    if not rpms:
+        pytest.skip(f"no committed helical explicit FE reference in {DEFAULT_FE_DIR}")
+    return validate("thesis-helical", rpms)
+
+
+def test_helical_report_structure(helical_report, tmp_path):
+    d = json.loads(helical_report.save(tmp_path / "h.json").read_text())
+    assert d["config"] == "thesis-helical"
+    for s in d["speeds"]:
+        assert s["fe_source"] == "stored" and s["rom"]["mesh_periods"] >= 5
+        for key in ("dte_rms_um", "gmf1_amplitude_um", "gmf2_amplitude_um", "gmf3_amplitude_um"):
+            assert all(math.isfinite(s["metrics"][key][k]) for k in ("rom", "fe", "rel_error"))
+        assert s["passed"] == (not s["misses"])
+
+
+def _helical_params():
+    return [pytest.param(rpm, marks=[pytest.mark.xfail(strict=True, reason=HELICAL_MISSES[rpm])]
+                         if rpm in HELICAL_MISSES else []) for rpm in RPMS]
+
+
+@pytest.mark.parametrize("rpm", _helical_params())
+def test_helical_rom_within_issue_tolerances(helical_report, rpm):
+    speeds = {int(s.rpm_in): s for s in helical_report.speeds}
+    if rpm not in speeds:
+        pytest.skip(f"no committed helical reference at {rpm} rpm")
+    s = speeds[rpm]
+    assert s.passed, "; ".join(s.misses)
+
+
+def test_cli_missing_helical_reference_names_file(tmp_path, capsys):
+    from gearrom.cli import main
+
+    rc = main(["validate", "thesis-helical", "--rpm", "2000", "--fe-dir", str(tmp_path)])
+    assert rc == 2
+    err = capsys.readouterr().err
+    assert "helical_2000rpm.npz" in err and "run_explicit_helical.py" in err
+
+
 def test_cli_missing_reference_names_file(tmp_path, capsys):
     from gearrom.cli import main
 
