@@ -1,7 +1,8 @@
 """All-quadrilateral (Q4) mesh of a whole spur gear for the explicit solver (gmsh, full-quad blossom).
 
-The outline is the rack-generated tooth profile of :mod:`gearrom.geometry.profile` (cleaned as in
-:mod:`gearrom.fe.mesh2d`), repeated for all teeth and resampled at the boundary element size, with
+The outline is the rack-generated tooth profile of :mod:`gearrom.geometry.profile` with the tip edges
+rounded as in the quasi-static FE (:func:`gearrom.fe.tipedge.tip_edge_radius`), cleaned as in
+:mod:`gearrom.fe.mesh2d`, repeated for all teeth and resampled at the boundary element size, with
 the bore circle. The size is ``outline_size`` on the outline and grows to ``body_size`` at
 ``grading`` (m) from it. Frame: gear centre at the origin, tooth 0 on +y.
 """
@@ -15,10 +16,13 @@ from gearrom.errors import MeshError
 
 
 def _closed_outline(pair, i: int) -> np.ndarray:
-    from gearrom.fe.mesh2d import _clean_profile   # same cleaning as the quasi-static meshes
+    from gearrom.fe.mesh2d import clean_profile   # same cleaning as the quasi-static meshes
+    from gearrom.fe.tipedge import tip_edge_radius
     from gearrom.geometry.profile import rotate, tooth_profile
 
-    prof = _clean_profile(tooth_profile(pair, i, n_involute=80, n_fillet=40, n_tip=8, n_root=8))
+    # the same rounded tip edges as the quasi-static FE (config tip_edge_radius or its default)
+    rho = tip_edge_radius(pair, i)[0]
+    prof = clean_profile(tooth_profile(pair, i, n_involute=80, n_fillet=40, n_tip=8, n_root=8, tip_edge_radius=rho))
     z = pair.gears[i].z
     parts = [rotate(prof.points, -k * 2 * math.pi / z)[:-1] for k in range(z)]
     return np.vstack(parts)
