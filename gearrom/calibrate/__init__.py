@@ -9,12 +9,14 @@ re-simulation -> :mod:`.characterize` (orders, sidebands, fixed vs tracking, une
 
 Models: :class:`~gearrom.calibrate.simulator.Simulator` protocol; the exudyn ROM through
 :class:`~gearrom.calibrate.simulator.RomSimulator` when it has the hooks, else the torsional rig
-model :class:`~gearrom.calibrate.rig.TorsionalRig`. Micro-geometry through
-:class:`~gearrom.calibrate.microgeom.SliceMicroModel` until the FE tables exist.
+model :class:`~gearrom.calibrate.rig.TorsionalRig`. Micro-geometry changes through the quasi-static FE
+tables without an FE solve (:class:`~gearrom.calibrate.microfe.FEMicroModel`; the analytical
+:class:`~gearrom.calibrate.microgeom.SliceMicroModel` only as an explicit fallback).
 """
 from gearrom.calibrate.diagnose import diagnose
 from gearrom.calibrate.effects import LIBRARY, Effect, EffectSpec, check_name
 from gearrom.calibrate.fit import FitSettings
+from gearrom.calibrate.microfe import FEMicroModel, with_micro
 from gearrom.calibrate.microgeom import MicroGeometryModel, MicroMods, SliceMicroModel
 from gearrom.calibrate.report import DiagnosisResult
 from gearrom.calibrate.rig import RigParams, TorsionalRig
@@ -22,6 +24,6 @@ from gearrom.calibrate.simulator import (ModelChanges, RomSimulator, RunConditio
                                          default_simulator)
 from gearrom.calibrate.synthetic import Injected, make_run
 
-__all__ = ["LIBRARY", "DiagnosisResult", "Effect", "EffectSpec", "FitSettings", "Injected", "MicroGeometryModel",
+__all__ = ["LIBRARY", "DiagnosisResult", "Effect", "EffectSpec", "FEMicroModel", "FitSettings", "Injected", "MicroGeometryModel",
            "MicroMods", "ModelChanges", "RigParams", "RomSimulator", "RunConditions", "SimHistory", "SliceMicroModel",
-           "Simulator", "TorsionalRig", "check_name", "default_simulator", "diagnose", "make_run"]
+           "Simulator", "TorsionalRig", "check_name", "default_simulator", "diagnose", "make_run", "with_micro"]

@@ -20,7 +20,8 @@ import numpy as np
 from gearrom.calibrate import characterize as chz
 from gearrom.calibrate.effects import LIBRARY
 from gearrom.calibrate.fit import Context, FitSettings, Trial, make_candidates
-from gearrom.calibrate.microgeom import MicroMods, SliceMicroModel
+from gearrom.calibrate.microfe import FEMicroModel
+from gearrom.calibrate.microgeom import MicroMods
 from gearrom.calibrate.model import build_run_model
 from gearrom.calibrate.report import DiagnosisResult, RunTraces
 from gearrom.calibrate.residual import fit_lines, load_run, rms
@@ -54,7 +55,8 @@ def diagnose(config: str | Path, measurements: Sequence[str | Path], *, simulato
     torque_out_Nm : float, optional
         Load for files that do not state it.
     micro_model : MicroGeometryModel, optional
-        Micro-geometry -> STE (default: the simulator's, else the analytical slice model).
+        Micro-geometry -> STE change (default: the simulator's, else the quasi-static FE tables through
+        :class:`~gearrom.calibrate.microfe.FEMicroModel`, with the analytical slice model as fallback).
 
     Returns
     -------
@@ -75,7 +77,7 @@ def diagnose(config: str | Path, measurements: Sequence[str | Path], *, simulato
     runs = [load_run(p, mesh, torque_out_Nm, read_settings) for p in measurements]
     sim = simulator or default_simulator(config)
     models = [build_run_model(sim, r) for r in runs]
-    micro_model = micro_model or getattr(sim, "micro_model", None) or SliceMicroModel()
+    micro_model = micro_model or getattr(sim, "micro_model", None) or FEMicroModel()
     micro_nominal = getattr(sim, "micro", None) or MicroMods.from_pair(pair)
     ctx = Context(models, sim, settings, pair, micro_model, micro_nominal)
     D = [m.run.y - m.nominal for m in models]
@@ -134,8 +136,12 @@ def _evidence(ctx: Context, t: Trial, D: list) -> str:
         txt += f"; impulsive once-per-rev pattern of the {shaft} gear (comb of its shaft orders"
         txt += f", crest factor of the per-revolution average {crest:.2g})" if crest else ")"
     elif name in ("tip_relief", "lead_crowning", "helix_slope"):
-        txt += "; GMF harmonics changed as the flank modification predicts (mesh phase " + \
-               ("estimated from the nominal GMF" if t.info.get("psi_rad") is None else "fitted: nominal had no GMF content") + ")"
+        if t.info.get("psi_rad") is None:
+            ph = (f"estimated from the nominal GMF, moved by {math.degrees(t.info.get('dpsi_rad', 0.0)):.2f} deg of "
+                  "input angle with the modification")
+        else:
+            ph = "fitted: nominal had no GMF content"
+        txt += f"; GMF harmonics changed as the flank modification predicts (mesh phase {ph})"
     elif name == "torsional_mode":
         rep = t.cand.report(t.x, t.info)
         txt += f"; the residual follows a re-tuned rig ({t.info.get('parameter')} x{rep['scale']:.3g})"

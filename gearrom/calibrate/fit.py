@@ -5,7 +5,8 @@ of every run from its parameters, through the run's model sensitivities (:mod:`.
 
 * ``eccentricity``: ``Re(H(1) a e^{i phi} e^{i theta})`` of its shaft (te and both channels move);
 * ``pitch_error``: one displaced tooth, the load-share window of the nominal mesh as the kinematic
-  error pattern, all shaft orders through ``H(q)``; the tooth index is searched;
+  error pattern, fitted on the shaft orders below ``z / (2 eps_gamma)`` (at least 3) through ``H(q)``,
+  where the pattern does not depend on the load-sharing model; the tooth index is searched;
 * ``encoder_eccentricity``: ``a cos(theta + phi)`` in te and in its own channel only;
 * ``tip_relief`` / ``lead_crowning`` / ``helix_slope`` and ``torsional_mode``: see
   :mod:`gearrom.calibrate.fit_mesh`.
@@ -29,7 +30,7 @@ import numpy as np
 from scipy.optimize import lsq_linear
 
 from gearrom.calibrate.effects import LIBRARY, amp_phase, load_share_window
-from gearrom.calibrate.microgeom import MicroMods
+from gearrom.calibrate.microgeom import MicroMods, SliceMicroModel
 from gearrom.calibrate.model import N_TABLE, RunModel
 from gearrom.calibrate.residual import detrend
 
@@ -88,10 +89,16 @@ class Context:
         return np.concatenate([(self.w[:, None] * a).ravel() for a in per_run])
 
     def ste_lines(self, torque: float, mods: MicroMods) -> np.ndarray:
+        """Complex GMF harmonics ``c_h`` (h = 1..N) of the STE with ``mods``, ``STE = Re sum c_h e^{i h z1 theta}``,
+        in the nominal table's angle origin (the micro-geometry model's ``theta_shift`` removed)."""
         key = (round(torque, 6), mods)
         if key not in self._ste:
             ex = self.micro_model.excitation(self.pair, [torque], mods)
-            self._ste[key] = ex.harmonics(torque, N_MESH_HARMONICS).ste[1:]
+            n = 64
+            th = np.arange(n) * ex.period / n
+            shift = self.micro_model.theta_shift(self.pair) if hasattr(self.micro_model, "theta_shift") else 0.0
+            c = 2.0 * np.fft.rfft(ex.ste(th - shift, torque)) / n
+            self._ste[key] = c[1:N_MESH_HARMONICS + 1]
         return self._ste[key]
 
 
@@ -223,7 +230,9 @@ class PitchError(Candidate):
     """One displaced tooth of a gear; the tooth index is searched."""
 
     def _window(self, ctx: Context, torque: float) -> tuple[np.ndarray, int]:
-        ex = ctx.micro_model.excitation(ctx.pair, [torque], ctx.micro_nominal)
+        # the load share of one tooth over its whole engagement: the thin-slice model has a column per
+        # engaged pair (the FE slice tables drop the pairs that entered before theta = 0)
+        ex = SliceMicroModel().excitation(ctx.pair, [torque], ctx.micro_nominal)
         z = ctx.pair.z[0 if self.target == "input_gear" else 1]
         return load_share_window(ex.load_share[0], N_TABLE, z), z
 
@@ -235,6 +244,12 @@ class PitchError(Candidate):
             w, z = self._window(ctx, m.run.torque_out_Nm)
             E = 2 * np.fft.rfft(w) / w.size
             orders, H = m.H[shaft]
+            # only the low orders, where the pattern is set by the area under it (deviation x one pitch) and
+            # not by the load-sharing model: another model of how the neighbours share the displaced tooth's
+            # error (e.g. a smoothing over eps_gamma pitches) changes the orders above z / (2 eps_gamma)
+            q_max = max(3, int(z / (2.0 * ctx.pair.eps_gamma)))
+            keep = orders <= q_max
+            orders, H = orders[keep], H[:, keep]
             G = H * E[orders][None, :] * UM  # (3, Q)
             th = _theta(m, shaft)
             B = np.exp(1j * np.outer(th, orders))  # (n, Q)

@@ -19,8 +19,46 @@ from scipy.optimize import minimize, minimize_scalar
 from gearrom.calibrate.fit import N_MESH_HARMONICS, UM, Candidate, Context, Trial, _dt
 from gearrom.calibrate.microgeom import MicroMods
 from gearrom.calibrate.model import RunModel, realigned
-from gearrom.calibrate.residual import map_to_run
+from gearrom.calibrate.residual import fit_lines, map_to_run
 from gearrom.calibrate.simulator import ModelChanges
+
+
+DPSI_SHARE = 0.05  # the mesh phase estimated from the nominal GMF lines may move by +-5 % of a mesh period
+
+
+def _phase(m: RunModel, psi: float | None) -> float:
+    """Mesh phase of run ``m``: ``psi`` is absolute for runs without alignable GMF content, an offset
+    from the run's estimate otherwise (None: the estimate)."""
+    if psi is None:
+        return m.psi
+    return m.psi + psi if m.psi_identifiable else psi
+
+
+def _stiffness_lines(ctx: Context) -> list:
+    """Per run: GMF lines (3, N) of the response to a change of ln(mean mesh stiffness), psi = 0 frame.
+
+    One re-simulation per run with the mesh stiffness x0.9 (when the simulator can scale it): the
+    dynamic effect of the stiffness change a flank modification brings along (crowning, tip relief
+    at low load), which the STE change alone misses. Zeros when the simulator cannot scale it.
+    """
+    key = ("stiffness_lines",)
+    if key not in ctx._ste:
+        out = []
+        tun = ctx.sim.tunable() if hasattr(ctx.sim, "tunable") else {}
+        for m in ctx.models:
+            s0 = np.zeros((3, N_MESH_HARMONICS), complex)
+            if "mesh_stiffness" in tun:
+                h = ctx.sim.simulate(m.cond, ModelChanges(rig_scale=(("mesh_stiffness", 0.9),), mesh_phase_rad=m.psi))
+                d = map_to_run(h, m.run) - m.nominal
+                z1 = m.run.mesh.z1
+                hs = np.arange(1, N_MESH_HARMONICS + 1)
+                ok = hs * z1 * m.run.rpm_in / 60.0 < 0.35 * m.run.fs_hz
+                lines = np.column_stack([hs[ok] * z1, np.zeros(ok.sum())])
+                c = fit_lines(d, m.run.theta_in_rad, m.run.theta_out_rad, lines)
+                s0[:, ok] = c * np.exp(-1j * hs[ok] * z1 * m.psi)[None, :] / math.log(0.9)
+            out.append(s0)
+        ctx._ste[key] = out
+    return ctx._ste[key]
 
 
 class Micro(Candidate):
@@ -42,11 +80,11 @@ class Micro(Candidate):
         return -self.bound if self.name == "helix_slope" else 0.0
 
     def _delta_ste(self, ctx: Context, torque: float, value: float) -> np.ndarray:
-        """STE change of the GMF harmonics at ``value`` um: the micro-geometry model on a grid of 33 values
+        """STE change of the GMF harmonics at ``value`` um: the micro-geometry model on a grid of 11 values
         over the plausible range, cubic interpolation in between (the lines vary smoothly with size)."""
         key = ("delta", self.name, self.target, round(torque, 6))
         if key not in ctx._ste:
-            grid = np.linspace(self._lo(), self.bound, 33)
+            grid = np.linspace(self._lo(), self.bound, 11)
             base = ctx.ste_lines(torque, ctx.micro_nominal)
             vals = np.array([ctx.ste_lines(torque, self._mods(ctx, v)) - base for v in grid])
             ctx._ste[key] = CubicSpline(grid, vals, axis=0)
@@ -74,8 +112,22 @@ class Micro(Candidate):
         nom = np.zeros((3, N_MESH_HARMONICS), complex)
         k = min(N_MESH_HARMONICS, m.gmf_model3.shape[1])
         nom[:, :k] = m.gmf_model3[:, :k]
-        p = m.psi if (psi is None or m.psi_identifiable) else psi
-        return (nom + Hh * d[None, :]) * np.exp(1j * hs * z1 * p)[None, :] - nom * np.exp(1j * hs * z1 * m.psi)[None, :]
+        p = _phase(m, psi)
+        s0 = _stiffness_lines(ctx)[ctx.models.index(m)]  # response to the mean-stiffness change, psi = 0 frame
+        lnk = self._delta_lnk(ctx, m.run.torque_out_Nm, value)
+        return ((nom + Hh * d[None, :] + s0 * lnk) * np.exp(1j * hs * z1 * p)[None, :]
+                - nom * np.exp(1j * hs * z1 * m.psi)[None, :])
+
+    def _delta_lnk(self, ctx: Context, torque: float, value: float) -> float:
+        """ln of the mean-stiffness ratio (modified / nominal) from the micro-geometry model (spline in size)."""
+        key = ("lnk", self.name, self.target, round(torque, 6))
+        if key not in ctx._ste:
+            grid = np.linspace(self._lo(), self.bound, 11)
+            k0 = ctx.micro_model.excitation(ctx.pair, [torque], ctx.micro_nominal).mean_stiffness(torque)
+            vals = np.array([math.log(ctx.micro_model.excitation(ctx.pair, [torque], self._mods(ctx, v))
+                                      .mean_stiffness(torque) / k0) for v in grid])
+            ctx._ste[key] = CubicSpline(grid, vals)
+        return float(ctx._ste[key](value))
 
     def _contrib(self, ctx, waves, value, psi_free):
         out = []
@@ -88,7 +140,11 @@ class Micro(Candidate):
         waves = self._waves(ctx)
         free = not all(m.psi_identifiable for m in ctx.models)
         z1 = ctx.models[0].run.mesh.z1
-        psis = np.linspace(0, 2 * math.pi / z1, 61)[:-1] if free else [None]
+        period = 2 * math.pi / z1
+        # mesh phase: free (absolute) when the nominal model has no GMF content to align; else the estimate
+        # from the nominal lines may be moved by DPSI_SHARE of a mesh period (a flank change also moves the
+        # phases of the GMF lines the estimate was made from)
+        psis = np.linspace(0, period, 61)[:-1] if free else np.linspace(-DPSI_SHARE * period, DPSI_SHARE * period, 9)
         lo, hi = self._lo(), self.bound
         nr = len(ctx.models)
         # the contribution is linear in the (3 x N) complex line coefficients per run: Gram system
@@ -123,41 +179,36 @@ class Micro(Candidate):
                     best = (d, v, psi)
         _, v0, psi0 = best
         step = (hi - lo) / 12
-        if psi0 is None:
-            r = minimize_scalar(lambda v: -dss_of(v, None), bounds=(max(lo, v0 - step), min(hi, v0 + step)),
-                                method="bounded", options={"xatol": 1e-3 * (hi - lo)})
-            v = float(r.x) if -r.fun > best[0] else v0
+        dpsi = psis[1] - psis[0]
+        plo, phi = (psi0 - dpsi, psi0 + dpsi) if free else (max(psis[0], psi0 - dpsi), min(psis[-1], psi0 + dpsi))
+        r = minimize(lambda p: -dss_of(p[0], p[1]), [v0, psi0], method="Nelder-Mead",
+                     bounds=[(max(lo, v0 - step), min(hi, v0 + step)), (plo, phi)],
+                     options={"xatol": 1e-4 * (hi - lo), "fatol": 1e-6 * abs(best[0]) + 1e-30, "maxiter": 60})
+        if -r.fun > best[0]:
+            v, psi0 = float(r.x[0]), float(r.x[1]) % period if free else float(r.x[1])
         else:
-            dpsi = psis[1] - psis[0]
-            r = minimize(lambda p: -dss_of(p[0], p[1]), [v0, psi0], method="Nelder-Mead",
-                         bounds=[(max(lo, v0 - step), min(hi, v0 + step)), (psi0 - dpsi, psi0 + dpsi)],
-                         options={"xatol": 1e-4 * (hi - lo), "fatol": 1e-6 * abs(best[0]) + 1e-30, "maxiter": 60})
-            if -r.fun > best[0]:
-                v, psi0 = float(r.x[0]), float(r.x[1]) % (2 * math.pi / z1)
-            else:
-                v = v0
+            v = v0
         d = dss_of(v, psi0)
         contrib = self._contrib(ctx, waves, v, psi0)
         assert nr == len(contrib)
-        info = {"psi_rad": psi0}
+        info = {"psi_rad": psi0} if free else {"dpsi_rad": psi0}
         if self.name == "tip_relief":
             dca = ctx.micro_nominal.tip_relief_start_diameter[0 if self.target == "input_gear" else 1]
             info["start_diameter_mm"] = None if dca is None else dca * 1e3  # from the config (not fitted)
-        return Trial(self, np.array([v]), contrib, d, 2 if free else 1, info)
+        return Trial(self, np.array([v]), contrib, d, 2, info)
 
     def resimulated(self, ctx: Context, value: float, psi_free) -> list:
         """Contribution by re-simulation (the flank modification also changes the stiffness variation,
         which the linear ``H x STE change`` misses near the mesh resonance)."""
         out = []
         for m in ctx.models:
-            p = m.psi if (psi_free is None or m.psi_identifiable) else psi_free
-            h = ctx.sim.simulate(m.cond, ModelChanges(micro=self._mods(ctx, value), mesh_phase_rad=p))
+            h = ctx.sim.simulate(m.cond, ModelChanges(micro=self._mods(ctx, value), mesh_phase_rad=_phase(m, psi_free)))
             out.append(map_to_run(h, m.run) - m.nominal)
         return out
 
     def refine(self, ctx: Context, R: np.ndarray, t: Trial, n_eval: int = 8) -> Trial:
         """Re-simulated bounded search of the size around the linearized estimate (mesh phase kept)."""
-        psi = t.info.get("psi_rad")
+        psi = t.info.get("psi_rad", t.info.get("dpsi_rad"))
         cache = {}
 
         def dss(v):
@@ -188,6 +239,9 @@ class Micro(Candidate):
         return {"micro": self._mods(ctx, float(x[0]))}
 
 
+PROBE_SHARE = 0.02  # share of the residual energy a rig parameter must explain at x0.8 or x1.25 to be searched
+
+
 class RigMode(Candidate):
     """torsional_mode: one rig parameter scaled, by re-simulation."""
 
@@ -207,7 +261,10 @@ class RigMode(Candidate):
             psis.append(psi)
         return out, psis
 
-    def fit(self, ctx, R):
+    def fit(self, ctx, R, x0: float | None = None):
+        """Bounded search of the scale in log space: two probes (x0.8, x1.25) screen the parameter, then the
+        search walks towards the better probe on a x1.25 ladder (0.4..2.5) and refines between the
+        neighbours of the best step. ``x0``: refine around a previous estimate only (joint refit)."""
         cache = {}
 
         def dss(logs):
@@ -218,15 +275,31 @@ class RigMode(Candidate):
                 cache[s] = (float(2 * v @ R - v @ v), c, psis)
             return cache[s][0]
 
-        grid = np.linspace(math.log(0.4), math.log(2.5), 7)
-        vals = [dss(g) for g in grid]
-        j = int(np.argmax(vals))
-        lo, hi = grid[max(j - 1, 0)], grid[min(j + 1, grid.size - 1)]
-        r = minimize_scalar(lambda g: -dss(g), bounds=(lo, hi), method="bounded", options={"xatol": 0.003, "maxiter": 12})
-        g = float(r.x) if -r.fun > vals[j] else float(grid[j])
-        s = round(math.exp(g), 6)
-        d = dss(g)
-        return Trial(self, np.array([s]), cache[s][1], d, 1, {"parameter": self.param, "psi_runs": cache[s][2]})
+        step = math.log(1.25)
+        if x0 is not None:
+            g0 = math.log(x0)
+            lo, hi = g0 - step, g0 + step
+        else:
+            probes = {math.log(0.8): dss(math.log(0.8)), math.log(1.25): dss(math.log(1.25))}
+            if max(probes.values()) < PROBE_SHARE * float(R @ R):
+                s = round(0.8 if probes[math.log(0.8)] >= probes[math.log(1.25)] else 1.25, 6)
+                return Trial(self, np.array([s]), cache[s][1], max(probes.values()), 1,
+                             {"parameter": self.param, "psi_runs": cache[s][2], "screened": True})
+            best = max(probes, key=probes.get)
+            direction = -1.0 if best < 0 else 1.0
+            g = best
+            while abs(g + direction * step) <= math.log(2.5) + 1e-9 and dss(g + direction * step) > dss(g):
+                g += direction * step
+            lo, hi = g - step, g + step
+            if lo < 0 < hi and direction > 0:  # the ladder jumps over 1 (0.8 -> 1.25): search from 0.8
+                lo = math.log(0.8)
+            if lo < 0 < hi and direction < 0:
+                hi = math.log(1.25)
+        r = minimize_scalar(lambda q: -dss(q), bounds=(lo, hi), method="bounded", options={"xatol": 0.004, "maxiter": 8})
+        s = max(cache, key=lambda k: cache[k][0])
+        if -r.fun > cache[s][0]:
+            s = round(math.exp(float(r.x)), 6)
+        return Trial(self, np.array([s]), cache[s][1], cache[s][0], 1, {"parameter": self.param, "psi_runs": cache[s][2]})
 
     def report(self, x, info):
         s = float(x[0])

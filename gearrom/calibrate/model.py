@@ -20,8 +20,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from gearrom.calibrate.residual import (RunData, estimate_mesh_phase, fit_lines, map_to_run, mesh_lines, noise_rms,
-                                        sim_signals)
+from gearrom.calibrate.residual import (RunData, estimate_mesh_phase, fit_lines, lowpass_gain, map_to_run, mesh_lines,
+                                        noise_rms, sim_signals)
 from gearrom.calibrate.simulator import ModelChanges, RunConditions, Simulator
 from gearrom.errors import CalibrationError
 
@@ -109,6 +109,7 @@ def build_run_model(sim: Simulator, run: RunData, *, with_sensitivity: bool = Tr
     n_h = int(max(1, min(6, math.floor(0.35 * run.fs_hz / run.gmf_hz))))
     lines = mesh_lines(z1, n_h)
     gm3 = fit_lines(ys - ys.mean(axis=1, keepdims=True), h0.theta_in_rad, h0.theta_out_rad, lines)
+    gm3 = gm3 * lowpass_gain(lines[:, 0] * run.rpm_in / 60.0, run.fs_hz)[None, :]  # the comparison band
     gm = gm3[0]
     gmeas = fit_lines(run.y[0], run.theta_in_rad, run.theta_out_rad, lines)
     psi, ok = estimate_mesh_phase(gmeas, gm, z1, noise / 1e-6 / math.sqrt(max(run.y.shape[1], 1) / 2))
@@ -129,6 +130,7 @@ def realigned(rm: RunModel, hist) -> tuple[np.ndarray, float]:
     fs_sim = 1.0 / float(np.median(np.diff(hist.t_s)))
     k = max(1, int(fs_sim // (5 * np.max(rm.lines[:, 0]) * rm.run.rpm_in / 60.0)))
     gm = fit_lines(ys[0, ::k] - ys[0].mean(), hist.theta_in_rad[::k], hist.theta_out_rad[::k], rm.lines)
+    gm = gm * lowpass_gain(rm.lines[:, 0] * rm.run.rpm_in / 60.0, rm.run.fs_hz)
     n = rm.run.y.shape[1]
     psi, ok = estimate_mesh_phase(rm.gmf_meas, gm, rm.run.mesh.z1, rm.noise_m / 1e-6 / math.sqrt(max(n, 1) / 2))
     if not ok:
@@ -179,5 +181,6 @@ def _sensitivity(sim: Simulator, rm: RunModel, hnom, shaft: str) -> tuple[np.nda
         k = max(1, int(fs_sim // (5 * orders[-1] * f_shaft)))  # rows thinned: the response lives below
         c = fit_lines(d[:, ::k], hnom.theta_in_rad[::k], hnom.theta_out_rad[::k], lines)
         orders_all.append(orders)
-        H_all.append(c / (INJECT_UM * 1e-6 * np.exp(1j * ph))[None, :])
+        gain = lowpass_gain(orders * f_shaft, run.fs_hz)  # the comparison band of the mapped signals
+        H_all.append(c * gain[None, :] / (INJECT_UM * 1e-6 * np.exp(1j * ph))[None, :])
     return np.concatenate(orders_all), np.concatenate(H_all, axis=1)

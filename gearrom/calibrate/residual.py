@@ -135,7 +135,7 @@ def load_run(path: str | Path, mesh: GearMeshInfo, torque_out_Nm: float | None =
     th1d, th2d, td = th1[::q][:n], th2[::q][:n], res.t_s[::q][:n]
     cut = slice(EDGE_TRIM, n - EDGE_TRIM)  # the decimation filter's start/end transients
     y, th1d, th2d, td = y[:, cut], th1d[cut], th2d[cut], td[cut]
-    y = detrend(y)
+    y = detrend(comparison_lowpass(y, res.fs_hz / q))
     run = RunData(name=str(path), rpm_in=float(res.rpm_in), rpm_in_nominal=float(res.rpm_in_nominal),
                   torque_out_Nm=float(torque), t_s=td - td[0], theta_in_rad=th1d, theta_out_rad=th2d, y=y,
                   fs_hz=res.fs_hz / q, mesh=mesh, repairs=tuple(res.repairs))
@@ -143,6 +143,27 @@ def load_run(path: str | Path, mesh: GearMeshInfo, torque_out_Nm: float | None =
         raise CalibrationError(f"{path}: the record holds {run.revs_out:.2f} output revolutions; the diagnosis "
                                "needs at least 1 (2 recommended)")
     return run
+
+
+LOWPASS_FRAC = 0.38  # comparison band edge, x the working rate (8th-order Butterworth, zero phase)
+
+
+def comparison_lowpass(y: np.ndarray, fs_hz: float) -> np.ndarray:
+    """The band limit applied identically to measured and simulated signals on the working grid.
+
+    The measurement reaches the working grid through FIR decimation, a simulation through
+    interpolation; their anti-alias filters differ near the working Nyquist frequency. A common
+    zero-phase low-pass at ``LOWPASS_FRAC x fs`` on the *same* samples makes the comparison band
+    identical (content above it, e.g. a mesh resonance near the Nyquist frequency, is not compared).
+    """
+    sos = signal.butter(8, LOWPASS_FRAC * fs_hz, fs=fs_hz, output="sos")
+    return signal.sosfiltfilt(sos, y, axis=-1)
+
+
+def lowpass_gain(f_hz, fs_hz: float) -> np.ndarray:
+    """Amplitude gain of :func:`comparison_lowpass` at ``f_hz`` (both passes)."""
+    x = (np.asarray(f_hz, float) / (LOWPASS_FRAC * fs_hz)) ** 16
+    return 1.0 / (1.0 + x)
 
 
 def sim_signals(hist: SimHistory, mesh: GearMeshInfo) -> tuple[np.ndarray, np.ndarray]:
@@ -166,7 +187,7 @@ def map_to_run(hist: SimHistory, run: RunData, angle_shift: float = 0.0) -> np.n
     """
     th_s, ys = sim_signals(hist, run.mesh)
     fs_sim = 1.0 / float(np.median(np.diff(hist.t_s)))
-    fc = 0.4 * run.fs_hz
+    fc = 0.48 * run.fs_hz  # anti-alias before sampling at the run's samples
     if fc < 0.5 * fs_sim * 0.95:
         sos = signal.butter(8, fc, fs=fs_sim, output="sos")
         ys = signal.sosfiltfilt(sos, ys, axis=1)
@@ -176,7 +197,7 @@ def map_to_run(hist: SimHistory, run: RunData, angle_shift: float = 0.0) -> np.n
         raise CalibrationError(f"simulated run covers input angle {th_s[0]:.3f}..{th_s[-1]:.3f} rad, the "
                                f"measurement {run.name} needs {th_m[0]:.3f}..{th_m[-1]:.3f} rad")
     out = CubicSpline(th_s, ys, axis=1)(th_m)  # linear interpolation would low-pass the mesh orders
-    return detrend(out, axis=1)
+    return detrend(comparison_lowpass(out, run.fs_hz), axis=1)
 
 
 # ------------------------------------------------------------------ order lines
@@ -200,9 +221,27 @@ def fit_lines(y: np.ndarray, theta_in: np.ndarray, theta_out: np.ndarray, lines,
         u = (theta_in - theta_in.mean()) / max(np.ptp(theta_in), 1e-12)
         A = np.hstack([A, np.ones((A.shape[0], 1)), u[:, None]])
     Y = np.atleast_2d(y).T
-    x = scipy.linalg.lstsq(A, Y, lapack_driver="gelsy", cond=1e-10)[0]
+    x = _solve_ls(A, Y)
     c = (x[:L] + 1j * x[L:2 * L]).T
     return c[0] if np.ndim(y) == 1 else c
+
+
+def _solve_ls(A: np.ndarray, Y: np.ndarray) -> np.ndarray:
+    """Least squares ``A x ~ Y``: normal equations of the column-scaled design by Cholesky (fast; the line
+    columns are nearly orthogonal), falling back to an SVD solve when the Gram matrix is ill-conditioned
+    (lines closer than the record resolves)."""
+    s = np.sqrt(np.einsum("ij,ij->j", A, A))
+    s[s == 0] = 1.0
+    As = A / s
+    G = As.T @ As
+    try:
+        cf = scipy.linalg.cho_factor(G, check_finite=False)
+        d = np.abs(np.diag(cf[0]))
+        if d.min() > 1e-6 * d.max():  # cond(G) < ~1e12
+            return scipy.linalg.cho_solve(cf, As.T @ Y, check_finite=False) / s[:, None]
+    except np.linalg.LinAlgError:
+        pass
+    return scipy.linalg.lstsq(As, Y, lapack_driver="gelsd", cond=1e-10)[0] / s[:, None]
 
 
 def eval_lines(c: np.ndarray, theta_in: np.ndarray, theta_out: np.ndarray, lines) -> np.ndarray:
@@ -249,14 +288,14 @@ def noise_rms(x: np.ndarray, fs_hz: float) -> float:
     """Robust rms of the broadband noise in ``x`` from the median periodogram.
 
     A Blackman-Harris window (sidelobes below -90 dB) keeps the leakage of strong lines out of the
-    band 0.05..0.35 fs used, and the median ignores the lines themselves:
+    band 0.05..0.3 fs used (inside the comparison band), and the median ignores the lines themselves:
     ``E|X_k|^2 = sigma^2 sum(w^2)`` and the median of an exponential variable is ``ln 2`` times its mean.
     """
     x = np.asarray(x, float) - np.mean(x)
     w = signal.get_window("blackmanharris", x.size)
     X = np.fft.rfft(x * w)
     f = np.fft.rfftfreq(x.size, 1 / fs_hz)
-    band = (f > 0.05 * fs_hz) & (f < 0.35 * fs_hz)
+    band = (f > 0.05 * fs_hz) & (f < 0.3 * fs_hz)
     if band.sum() < 8:
         band = f > 0
     p = np.abs(X[band]) ** 2

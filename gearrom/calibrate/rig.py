@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from gearrom.calibrate.microfe import FEMicroModel, with_micro
 from gearrom.calibrate.microgeom import MicroMods, SliceMicroModel
 from gearrom.calibrate.simulator import ModelChanges, RunConditions, SimHistory
 from gearrom.errors import CalibrationError
@@ -158,7 +159,7 @@ class TorsionalRig:
     micro : MicroMods
         Flank modifications of the nominal model (default: those enabled in the config).
     micro_model : MicroGeometryModel
-        Micro-geometry -> excitation table (analytical slices until the FE tables exist).
+        Micro-geometry model for flank changes (default: FE tables; the nominal table is the slice model).
     h_s, warmup_s : float
         Integration step and discarded warm-up, s.
     """
@@ -170,7 +171,7 @@ class TorsionalRig:
         self.pair = pair
         self.params = params or RigParams()
         self.micro = micro if micro is not None else MicroMods.from_pair(pair)
-        self.micro_model = micro_model or SliceMicroModel()
+        self.micro_model = micro_model or FEMicroModel()
         self.h_s = h_s
         self.warmup_s = warmup_s
         self._tables: dict = {}
@@ -188,7 +189,9 @@ class TorsionalRig:
     def _table(self, torque: float, micro: MicroMods):
         key = (round(torque, 6), micro)
         if key not in self._tables:
-            ex = self.micro_model.excitation(self.pair, [torque], micro)
+            ex = SliceMicroModel().excitation(self.pair, [torque], self.micro)  # the rig's nominal table
+            if micro != self.micro:  # a flank change: from the micro-geometry model (FE tables by default)
+                ex = with_micro(ex, self.micro_model, self.pair, torque, self.micro, micro)
             _, k, e = ex.sampled(torque, 512)
             self._tables[key] = (k, e)
         return self._tables[key]

@@ -8,7 +8,7 @@ import numpy as np
 from scipy.optimize import lsq_linear
 
 from gearrom.calibrate.fit import Context, Trial
-from gearrom.calibrate.fit_mesh import Micro
+from gearrom.calibrate.fit_mesh import Micro, RigMode
 from gearrom.calibrate.microgeom import MicroMods
 from gearrom.calibrate.residual import map_to_run
 from gearrom.calibrate.simulator import ModelChanges
@@ -128,14 +128,16 @@ def select_effects(ctx: Context, candidates: list, D: list[np.ndarray]) -> tuple
         if not trials:
             break
         trials.sort(key=lambda t: -t.dss)
+        floor = max(s.kappa * ctx.noise_var, s.min_total_fraction * float(R0 @ R0), s.min_fraction * ss)
         for i, t in enumerate(trials[:2]):  # the leading flank-modification candidates: re-simulated sizes
-            if isinstance(t.cand, Micro):
+            if isinstance(t.cand, Micro) and t.dss > 0.1 * floor:
                 trials[i] = t.cand.refine(ctx, R, t)
         trials.sort(key=lambda t: -t.dss)
         _apply_split_test(ctx, R, trials)
         best = trials[0]
         thresh = max(s.kappa * ctx.noise_var * best.n_par, s.min_fraction * ss, s.min_total_fraction * float(R0 @ R0))
-        screened |= {repr(t.cand) for t in trials if t.cand.name == "torsional_mode" and t.dss < 0.25 * thresh}
+        screened |= {repr(t.cand) for t in trials if t.cand.name == "torsional_mode"
+                     and (t.dss < 0.25 * thresh or t.info.get("screened"))}
         step = {"residual_energy": ss, "threshold": thresh,
                 "ranking": [{"candidate": repr(t.cand), "effect": t.cand.name, "target": t.cand.target,
                              "explained_share": t.dss / ss if ss > 0 else 0.0} for t in trials[:6]]}
@@ -166,6 +168,8 @@ def joint_refit(ctx: Context, accepted: list[Trial], R0: np.ndarray, sweeps: int
     """Refit all accepted effects together: one bounded least squares over the linear ones, alternated
     with refits of the non-linear ones (micro-geometry, rig parameters) on what the others leave."""
     accepted = list(accepted)
+    if len(accepted) < 2:  # a single effect was fitted on exactly this residual already
+        return accepted
     zero = np.zeros_like(R0)
     for _ in range(sweeps):
         lin = [i for i, t in enumerate(accepted) if hasattr(t.cand, "linear_columns")]
@@ -188,7 +192,9 @@ def joint_refit(ctx: Context, accepted: list[Trial], R0: np.ndarray, sweeps: int
                 j += n
         for i in non:
             others = sum((ctx.stack(u.contrib) for j2, u in enumerate(accepted) if j2 != i), zero)
-            new = accepted[i].cand.fit(ctx, R0 - others)
+            t = accepted[i]
+            new = t.cand.fit(ctx, R0 - others, x0=float(t.x[0])) if isinstance(t.cand, RigMode) else \
+                t.cand.fit(ctx, R0 - others)
             if isinstance(new.cand, Micro):
                 new = new.cand.refine(ctx, R0 - others, new)
             new.info = {**accepted[i].info, **new.info}
@@ -206,6 +212,7 @@ def verification_changes(ctx: Context, accepted: list[Trial], run: int = 0) -> t
     meas = [np.zeros_like(m.nominal) for m in ctx.models]
     psi_free = None
     psi_runs = None
+    dpsi = 0.0
     for t in accepted:
         ch = t.cand.changes(t.x, t.info, ctx, run)
         for k in kin:
@@ -220,6 +227,8 @@ def verification_changes(ctx: Context, accepted: list[Trial], run: int = 0) -> t
                               micro.helix_slope + new.helix_slope - ctx.micro_nominal.helix_slope)
             if isinstance(t.cand, Micro) and t.info.get("psi_rad") is not None:
                 psi_free = t.info["psi_rad"]
+            if isinstance(t.cand, Micro) and t.info.get("dpsi_rad") is not None:
+                dpsi = t.info["dpsi_rad"]
         if "rig_scale" in ch:
             rig.extend(ch["rig_scale"])
             psi_runs = t.info.get("psi_runs")
@@ -227,7 +236,7 @@ def verification_changes(ctx: Context, accepted: list[Trial], run: int = 0) -> t
         if mt is not None:
             meas = [a + b for a, b in zip(meas, mt)]
     changes = dict(kin, micro=None if micro == ctx.micro_nominal else micro, rig_scale=tuple(rig))
-    return {"changes": changes, "psi_free": psi_free, "psi_runs": psi_runs}, meas
+    return {"changes": changes, "psi_free": psi_free, "psi_runs": psi_runs, "dpsi": dpsi}, meas
 
 
 def verify(ctx: Context, accepted: list[Trial]) -> list[np.ndarray]:
@@ -243,6 +252,8 @@ def verify(ctx: Context, accepted: list[Trial]) -> list[np.ndarray]:
             psi = spec["psi_runs"][r]
         elif spec["psi_free"] is not None and not m.psi_identifiable:
             psi = spec["psi_free"]
+        elif m.psi_identifiable:
+            psi = m.psi + spec["dpsi"]
         ch = ModelChanges(mesh_phase_rad=psi, **spec["changes"])
         if ch.kinematic_in is None and ch.kinematic_out is None and ch.micro is None and not ch.rig_scale \
                 and math.isclose(psi, m.psi):

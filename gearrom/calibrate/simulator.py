@@ -21,7 +21,7 @@ Conventions of :class:`ModelChanges`
   the record starts, i.e. the encoder's first edge). Positive values make the output lag.
   Quasi-statically the TE grows by exactly this amount; dynamically the drivetrain filters it.
 * ``micro``: flank modifications (:class:`~gearrom.calibrate.microgeom.MicroMods`), turned into a
-  mesh excitation table by the micro-geometry model (analytical slices now, FE tables later).
+  change of the nominal mesh excitation table by the micro-geometry model (FE tables, no FE solve).
 * ``rig_scale``: multiplicative changes of named rig parameters (``Simulator.tunable()``).
 * ``load_ripple``: ``(relative amplitude, order of the output shaft, phase_rad)`` of the brake
   torque: not a library effect, used to make out-of-library test data.
@@ -37,6 +37,7 @@ from typing import Protocol
 
 import numpy as np
 
+from gearrom.calibrate.microfe import with_micro
 from gearrom.calibrate.microgeom import MicroMods
 from gearrom.errors import CalibrationError
 
@@ -148,7 +149,9 @@ class RomSimulator:
 
     * kinematic errors -> ``Effects(extra=(ExtraTE(fn),))`` with ``fn(theta1, theta2)`` evaluated in the
       record's angle reference (the ROM passes absolute drive-sense angles);
-    * micro-geometry -> ``build_rig(config, torque, excitation=micro_model.excitation(...))``;
+    * micro-geometry -> the ROM's nominal table plus the change the micro-geometry model (default: the
+      quasi-static FE tables, :class:`~gearrom.calibrate.microfe.FEMicroModel`) predicts between the
+      nominal and the modified flanks (:func:`~gearrom.calibrate.microfe.with_micro`);
     * mesh phase -> ``theta0`` chosen so that the input gear stands at ``mesh_phase_rad`` when the
       record starts (the ROM's mesh table is evaluated at the absolute input angle);
     * load ripple -> ``Effects(load_ripple=(LoadRipple(order, amplitude, phase),))`` (N m, output order;
@@ -163,14 +166,15 @@ class RomSimulator:
     def __init__(self, config, micro_model=None, sample_rate_hz: float = 50e3, settle_s: float = 0.02):
         import gearrom.rom as rom
 
-        from gearrom.calibrate.microgeom import SliceMicroModel
+        from gearrom.calibrate.microfe import FEMicroModel
 
         self._rom = rom
         self.config = config
-        self.micro_model = micro_model or SliceMicroModel()
+        self.micro_model = micro_model or FEMicroModel()
         self.sample_rate_hz = float(sample_rate_hz)
         self.settle_s = round(settle_s * sample_rate_hz) / sample_rate_hz
         self._models: dict = {}
+        self._modes: dict = {}
         from gearrom.config import load_config
 
         self.pair = load_config(config, check=False).pair
@@ -180,11 +184,14 @@ class RomSimulator:
         return {k: v[1] for k, v in ROM_TUNABLE.items()}
 
     def modes_hz(self, rig_scale=()) -> list[tuple[float, float]]:
-        try:
-            res = self._rom.modal_analysis(self._model(None, 120.0, tuple(rig_scale)))
-            return [(float(f), float(z)) for f, z in zip(res.freqs, res.damping)]
-        except Exception:  # noqa: BLE001  (modal data are informative only)
-            return []
+        key = tuple((str(n), round(float(v), 9)) for n, v in rig_scale)
+        if key not in self._modes:
+            try:
+                res = self._rom.modal_analysis(self._model(None, 120.0, key))
+                self._modes[key] = [(float(f), float(z)) for f, z in zip(res.freqs, res.damping)]
+            except Exception:  # noqa: BLE001  (modal data are informative only)
+                self._modes[key] = []
+        return list(self._modes[key])
 
     def _model(self, micro: MicroMods | None, torque: float, rig_scale: tuple = ()):
         key = (micro, round(torque, 6), tuple((str(n), round(float(v), 9)) for n, v in rig_scale))
@@ -203,12 +210,12 @@ class RomSimulator:
                 cfg = self._rom.with_overrides(self.config, {
                     ROM_TUNABLE[n][0]: float(params[ROM_TUNABLE[n][0]]) * v for n, v in scale.items() if ROM_TUNABLE[n][0]})
             ex = None
+            if (micro is not None and micro != self.micro) or "mesh_stiffness" in scale:
+                loaded = self._rom_cfg()
+                ex = load_excitation(loaded, rom_section(loaded), torque)  # the ROM's own nominal table
             if micro is not None and micro != self.micro:
-                ex = self.micro_model.excitation(self.pair, [0.5 * torque, torque, 1.5 * torque], micro)
+                ex = with_micro(ex, self.micro_model, self.pair, torque, self.micro, micro)
             if "mesh_stiffness" in scale:
-                if ex is None:
-                    loaded = cfg if not isinstance(cfg, (str, bytes)) and hasattr(cfg, "pair") else self._rom_cfg()
-                    ex = load_excitation(loaded, rom_section(loaded), torque)
                 ex = dataclasses.replace(ex, k=ex.k * scale["mesh_stiffness"])
             self._models[key] = self._rom.build_rig(cfg, torque, excitation=ex)
         return self._models[key]

@@ -144,3 +144,115 @@ def make_run(path_json: str | Path, config: str, rpm_in: float, *, simulator, to
                         line_error_rad=line_error_rad, rng=seed)
     return write_measurement(path_json, rec, rpm_in=rpm_meta or rpm_in, torque_out_Nm=torque_out_Nm, config=config,
                              description=f"synthetic run ({getattr(simulator, 'name', 'simulator')}), effects {inj}")
+
+
+# ---------------------------------------------------------------- data made by the exudyn ROM
+@dataclass(frozen=True)
+class RomInjected:
+    """Effects put into ROM-made data with the ROM's *own* effect models (:mod:`gearrom.rom.mesh`).
+
+    Attributes
+    ----------
+    runout, pitch, load_ripple : tuple
+        :class:`gearrom.rom.Runout` (eccentricity with centre-distance modulation of the mesh),
+        :class:`gearrom.rom.PitchDeviations`, :class:`gearrom.rom.LoadRipple` (N m, output order).
+    encoder : dict
+        ``{"input_encoder"|"output_encoder": (amplitude_um, phase_rad)}``: angle error of that disc,
+        ``(a / r_b) cos(theta_disc + phase)`` in the *absolute* disc angle, as a TE equivalent.
+    overrides : dict
+        Rig parameter changes (:func:`gearrom.rom.with_overrides` keys), e.g. the clutch stiffness.
+    mesh_stiffness : float
+        Factor on the stiffness of the ROM's mesh table.
+    micro : MicroMods or None
+        Flank modifications (change of the ROM's nominal table by the micro-geometry model).
+    """
+
+    runout: tuple = ()
+    pitch: tuple = ()
+    load_ripple: tuple = ()
+    encoder: dict = field(default_factory=dict)
+    overrides: dict = field(default_factory=dict)
+    mesh_stiffness: float = 1.0
+    micro: MicroMods | None = None
+
+
+def rom_model(config: str, torque_out_Nm: float, inj: RomInjected, micro_model=None):
+    """The ROM drivetrain of ``config`` with the rig/mesh changes of ``inj`` (for :func:`make_rom_run`)."""
+    import dataclasses
+    import warnings
+
+    from gearrom.calibrate.microfe import FEMicroModel, with_micro
+    from gearrom.config import load_config
+    from gearrom.rom import build_rig, with_overrides
+    from gearrom.rom.rig import load_excitation, rom_section
+
+    cfg = with_overrides(config, dict(inj.overrides)) if inj.overrides else config
+    ex = None
+    if inj.micro is not None or inj.mesh_stiffness != 1.0:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            loaded = load_config(config, check=False)
+        ex = load_excitation(loaded, rom_section(loaded), torque_out_Nm)
+        if inj.micro is not None:
+            ex = with_micro(ex, micro_model or FEMicroModel(), loaded.pair, torque_out_Nm,
+                            MicroMods.from_pair(loaded.pair), inj.micro)
+        if inj.mesh_stiffness != 1.0:
+            ex = dataclasses.replace(ex, k=ex.k * inj.mesh_stiffness)
+    return build_rig(cfg, torque_out_Nm, excitation=ex)
+
+
+def make_rom_run(path_json: str | Path, config: str, rpm_in: float, injected: RomInjected | None = None, *,
+                 torque_out_Nm: float = 120.0, revs_out: float = 2.3, edges_per_rev=(40000, 36000),
+                 clock_hz: float = 80e6, jitter_s: float = 2e-9, line_error_rad=2e-7, rpm_meta: float | None = None,
+                 seed: int = 0, sample_rate_hz: float = 50e3, settle_s: float = 0.05, model=None) -> tuple[Path, dict]:
+    """Simulate a run with the exudyn ROM and its own effect models, emulate the encoders, write the file.
+
+    The record starts after ``settle_s`` (a steady state, as a rig is measured) at a random shaft angle, the encoder discs have random line-0 angles, the record
+    is not a whole number of revolutions, and the two encoders may have different line counts.
+
+    Returns
+    -------
+    path : Path
+        The measurement JSON (edges CSV next to it).
+    info : dict
+        ``theta_first_in``, ``theta_first_out``: absolute drive-sense angle (rad) of each channel's
+        first edge (the angle reference of the diagnosis' phases), ``rom_model``.
+    """
+    from gearrom.rom import Effects, simulate_run
+
+    inj = injected or RomInjected()
+    rng = np.random.default_rng(seed)
+    model = model or rom_model(config, torque_out_Nm, inj)
+    res = simulate_run(model, rpm_in, torque_out_Nm, n_output_revs=revs_out, sample_rate_hz=sample_rate_hz,
+                       theta0=float(rng.uniform(0, 2 * math.pi)), settle_s=settle_s,
+                       effects=Effects(runout=tuple(inj.runout), pitch=tuple(inj.pitch),
+                                       load_ripple=tuple(inj.load_ripple)))
+    t = np.asarray(res.time, float)
+    th1, th2 = np.asarray(res.angle("in"), float), np.asarray(res.angle("out"), float)
+    rb1, rb2 = model.pair.rb
+    if "input_encoder" in inj.encoder:
+        a, ph = inj.encoder["input_encoder"]
+        th1 = th1 + a * 1e-6 / rb1 * np.cos(th1 + ph)
+    if "output_encoder" in inj.encoder:
+        a, ph = inj.encoder["output_encoder"]
+        th2 = th2 - a * 1e-6 / rb2 * np.cos(th2 + ph)
+    n_in, n_out = (edges_per_rev, edges_per_rev) if np.isscalar(edges_per_rev) else edges_per_rev
+    off = (float(rng.uniform(0, 2 * math.pi / n_in)), float(rng.uniform(0, 2 * math.pi / n_out)))
+    rec = emulate_edges(t - t[0], th1, th2, edges_per_rev=(int(n_in), int(n_out)), clock_hz=clock_hz,
+                        jitter_s=jitter_s, line_error_rad=line_error_rad, offset_rad=off, rng=rng)
+    first = [o + math.ceil((th[0] - o) / (2 * math.pi / n) - 1e-12) * (2 * math.pi / n)
+             for o, th, n in ((off[0], th1, n_in), (off[1], th2, n_out))]
+    path = write_measurement(path_json, rec, rpm_in=rpm_meta or rpm_in, torque_out_Nm=torque_out_Nm, config=config,
+                             description=f"synthetic run (gearrom.rom, exudyn), effects {inj}")
+    return path, {"theta_first_in": first[0], "theta_first_out": first[1]}
+
+
+def rom_runout_phase_deg(phase_rad: float, theta_first: float) -> float:
+    """A ROM runout ``e sin(theta_gear + phase)`` (absolute angle) in the diagnosis' convention
+    ``a cos(theta + phi)`` with theta from the channel's first edge: ``phi = phase - 90 deg + theta_first``."""
+    return (math.degrees(phase_rad - math.pi / 2 + theta_first) + 180.0) % 360.0 - 180.0
+
+
+def encoder_phase_deg(phase_rad: float, theta_first: float) -> float:
+    """An encoder error ``cos(theta_disc + phase)`` (absolute) as ``cos(theta + phi)`` from the first edge."""
+    return (math.degrees(phase_rad + theta_first) + 180.0) % 360.0 - 180.0

@@ -27,6 +27,9 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                         "(eccentricity,pitch_error,tip_relief,lead_crowning,helix_slope,encoder_eccentricity,torsional_mode)")
     parser.add_argument("--per-run-phase", action="store_true",
                         help="shaft-order phases per run (when the files do not start at the encoder index)")
+    parser.add_argument("--micro-model", choices=("fe", "slices"), default="fe",
+                        help="flank modifications through the quasi-static FE tables (default; no FE solve per "
+                             "modification, the FE cache is built once per gear) or the analytical thin slices")
     parser.add_argument("--rpm-tolerance", type=float, default=0.05,
                         help="allowed relative mismatch of rpm_in and the data (default 0.05)")
 
@@ -47,7 +50,13 @@ def run(args: argparse.Namespace) -> int:
         raise CalibrationError(f"--max-effects={args.max_effects} must be >= 0")
     settings = FitSettings(max_effects=args.max_effects, candidates=names, shared_shaft_phase=not args.per_run_phase)
     sim = default_simulator(args.config, prefer=args.simulator)
-    res = diagnose(args.config, args.measurements, simulator=sim, settings=settings,
+    micro = None
+    if args.micro_model == "slices":
+        from gearrom.calibrate.microgeom import SliceMicroModel
+
+        micro = SliceMicroModel()
+        sim.micro_model = micro  # the re-simulations use the same micro-geometry model as the fits
+    res = diagnose(args.config, args.measurements, simulator=sim, settings=settings, micro_model=micro,
                    read_settings=ReadSettings(rpm_tolerance=args.rpm_tolerance), torque_out_Nm=args.torque_out_Nm)
     if args.json_out == "-":
         sys.stdout.write(res.to_json())

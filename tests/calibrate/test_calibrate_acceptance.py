@@ -1,4 +1,8 @@
-"""Acceptance of issue 6 on synthetic measurements with undeclared effects.
+"""Diagnosis of data made by the package's own torsional rig model (a second, independent data path).
+
+The acceptance of issue 6 runs on ROM-made data (test_acceptance_rom.py). Here the same diagnosis sees
+data from the torsional rig model (:mod:`gearrom.calibrate.rig`); the cases that duplicate the ROM
+acceptance are marked slow (run by hand / in the benchmark), the cheap ones stay in the suite.
 
 Reference: the injected effects themselves (sizes at drawing tolerance, written from their physical
 definitions in :mod:`gearrom.calibrate.synthetic`, independently of the diagnosis' effect models),
@@ -58,6 +62,7 @@ def test_pitch_error_tooth_and_size(diagnosed):
     _halved(res)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("key,mods,effect,target,amount", [
     ("tip_in", MicroMods(tip_relief=(10e-6, 0.0), tip_relief_start_diameter=(59.37e-3, 74.29e-3)),
      "tip_relief", "input_gear", 10.0),
@@ -73,6 +78,7 @@ def test_flank_modifications(diagnosed, key, mods, effect, target, amount):
     _halved(res)
 
 
+@pytest.mark.slow
 def test_moved_resonance(diagnosed):
     """A softer input shaft (x0.7) moves the ~635 Hz mode of the spur rig, near GMF at 1250 rpm."""
     res = diagnosed("mode", Injected(rig_scale=(("k_shaft_in", 0.7),)), config="thesis-spur", speeds=ONE)
@@ -86,6 +92,7 @@ def test_moved_resonance(diagnosed):
     _halved(res)
 
 
+@pytest.mark.slow
 def test_two_effects_at_once(diagnosed):
     """Runout of the input gear plus eccentricity of the output encoder (the other shaft)."""
     res = diagnosed("two", Injected(eccentricity={"input_gear": (10.0, 120.0)},
@@ -100,6 +107,7 @@ def test_two_effects_at_once(diagnosed):
     _halved(res)
 
 
+@pytest.mark.slow
 def test_negative_control_adds_nothing(diagnosed):
     res = diagnosed("none", Injected())
     s = res.summary
@@ -109,6 +117,7 @@ def test_negative_control_adds_nothing(diagnosed):
     assert all(u["amplitude_um"] < 5 * s["noise_rms_um"] for u in res.unexplained), res.text()
 
 
+@pytest.mark.slow
 def test_out_of_library_load_ripple_is_unexplained(diagnosed):
     """5 % brake-torque ripple at output order 3.4: reported as an order-tracking line at that order
     (seen at both speeds), and no library effect is claimed."""
@@ -120,6 +129,7 @@ def test_out_of_library_load_ripple_is_unexplained(diagnosed):
     assert big["integer_order"] is None
 
 
+@pytest.mark.slow
 def test_robust_to_speed_error_noise_and_short_record(diagnosed):
     """1 % wrong nominal rpm in the file, +10 % timing noise (2.96 ns jitter on top of the 12.5 ns clock
     quantization), 2 output revolutions: same effect, same size (5 %) and phase (3 deg) as the clean run."""

@@ -33,7 +33,7 @@ def rom_runout(tmp_path_factory):
     return path, 10.0, (phase + 180) % 360 - 180
 
 
-@pytest.mark.parametrize("which", ["rom", "torsional"])
+@pytest.mark.parametrize("which", [pytest.param("rom", marks=pytest.mark.slow), "torsional"])
 def test_rom_runout_is_found(rom_runout, which):
     path, amp, phase = rom_runout
     sim = RomSimulator("thesis-helical") if which == "rom" else TorsionalRig.from_config("thesis-helical")
