@@ -152,10 +152,10 @@ def test_long_tip_relief_direction_and_no_new_fe_solve(pair, cache, cycle, monke
         gears.append(dataclasses.replace(g, micro=dataclasses.replace(g.micro, enabled=True, tip_relief=10e-6,
                                                                        tip_relief_start_diameter=d_ca)))
     relieved = dataclasses.replace(pair, gears=tuple(gears))
-    t0 = time.perf_counter()
+    t0 = time.process_time()  # CPU time of this process: other jobs on the shared machine do not count
     ltca2 = build_ltca(relieved, COARSE, cache_dir=cache)  # cache key excludes micro-geometry: no FE solve
     res = mesh_cycle(ltca2, [120.0], 64)
-    assert time.perf_counter() - t0 < 2.0
+    assert time.process_time() - t0 < 2.0
     assert np.ptp(res.ste[0]) < 0.8 * np.ptp(cycle.ste[1])
     assert 1e-6 < np.ptp(res.ste_kinematic) <= 10e-6 + 1e-9
     assert res.max_pressure[0].max() < 0.9 * cycle.max_pressure[1].max()  # tip-edge contact relieved
