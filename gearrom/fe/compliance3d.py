@@ -40,7 +40,7 @@ from gearrom.fe.mesh3d import Mesh3DSettings, sector_mesh
 
 log = logging.getLogger(__name__)
 
-CODE_VERSION = "compliance-3d-v1"
+CODE_VERSION = "compliance-3d-v2"
 
 
 def flank_geometry(pair, i: int, sigma, zeta, tooth: int = 0, h: float = 1e-7):
@@ -173,7 +173,7 @@ def flank_range(pair, i: int) -> tuple[float, float]:
 
 
 def compute_compliance3d(pair, i: int, settings: Mesh3DSettings | None = None, n_sigma: int = 8, n_zeta: int = 12,
-                         depth: float = 0.6e-3, nq: int = 4, inset: float = 15e-6) -> FlankCompliance3D:
+                         depth: float = 0.6e-3, nq: int = 4, inset: float | None = None) -> FlankCompliance3D:
     """Mesh gear ``i``'s sector, factorise it once and compute its coarse influence coefficients.
 
     Parameters
@@ -184,10 +184,12 @@ def compute_compliance3d(pair, i: int, settings: Mesh3DSettings | None = None, n
         Read-out depth [m] (limited to 0.3 x the local transverse tooth thickness near the tip).
     nq : int
         Quadrature points per patch direction for the loads and the half-space subtraction.
-    inset : float
-        Load points are moved this far inside to lie in the faceted mesh [m].
+    inset : float, optional
+        Load points are moved this far inside to lie in the faceted mesh [m] (default 5 % of the
+        flank element size, above the chord error of the facets).
     """
     s = settings or Mesh3DSettings()
+    inset = 0.05 * s.flank_size if inset is None else inset
     t0 = time.perf_counter()
     mesh = sector_mesh(pair, i, s)
     t1 = time.perf_counter()
@@ -220,6 +222,7 @@ def compute_compliance3d(pair, i: int, settings: Mesh3DSettings | None = None, n
         reads.append(body.probe_matrix(Xb - dep[:, None] * Nb, -Nb, f"gear {i} tooth {j} read-out points"))
     R = sp.vstack(reads).tocsr()
     U = body.solve(F)
+    body.release()  # the factor (GBs in MKL memory) is not needed any more
     G = (R @ U).reshape(offsets.size, n, n).transpose(0, 2, 1)  # G[k][a (load), b (response)]
     t3 = time.perf_counter()
     X0, N0 = flank_geometry(pair, i, SG, ZT, 0)

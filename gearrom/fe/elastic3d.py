@@ -47,6 +47,19 @@ class _Factor:
         except RuntimeError as exc:
             raise SolverError(f"factorisation of the 3D stiffness matrix failed ({exc}): check the mesh") from None
 
+    def free(self) -> None:
+        """Release the factorisation (PARDISO keeps it in MKL memory until told otherwise)."""
+        if self.backend == "pardiso":
+            self._ps.free_memory(everything=True)
+        else:
+            self._lu = None
+
+    def __del__(self) -> None:  # pragma: no cover - best effort
+        try:
+            self.free()
+        except Exception:  # noqa: BLE001
+            pass
+
     def solve(self, B: np.ndarray) -> np.ndarray:
         B = np.asarray(B, float)
         if self.backend == "pardiso":
@@ -138,6 +151,12 @@ class ElasticBody3D:
         if not np.all(np.isfinite(U)):
             raise SolverError("3D linear solve returned non-finite displacements (singular stiffness?)")
         return U
+
+    def release(self) -> None:
+        """Release the factorisation (the body can no longer solve)."""
+        if self._factor is not None:
+            self._factor.free()
+            self._factor = None
 
     def vertex_displacement(self, U: np.ndarray) -> np.ndarray:
         """Displacement of the mesh vertices (nverts, 3) from a solution vector (ndof,)."""

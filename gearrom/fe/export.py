@@ -2,7 +2,8 @@
 
 * :func:`export_vtu` re-solves both gear bodies under the LTCA contact forces of one position and
   writes the two deformed-ready meshes in the global frame (gear 1 centre at the origin, gear 2 at
-  (0, a_w)) with point data ``displacement`` [m], ``contact_pressure`` [Pa], ``von_mises`` [Pa], ``gear``.
+  (0, a_w)) with point data ``displacement`` [m], ``contact_pressure`` [Pa], ``von_mises`` [Pa], ``gear``
+  (helical pairs: the 3D model's tetrahedral gears, :mod:`gearrom.fe.loaded3d`).
 * :func:`export_inp` writes the model of one mesh position as an Abaqus input deck in mm, N, MPa:
   both gears as a plane-strain slab of thickness b (one layer of 15-node wedges C3D15 extruded
   from the quadratic triangles, u_z = 0), the input bore on a rigid body (REF/ROT node) loaded by
@@ -44,8 +45,15 @@ def export_vtu(ltca, theta: float, torque: float, path: str | Path, settings: Me
     pair = ltca.pair
     if pair.is_helical:
         from gearrom.errors import ModelError
+        from gearrom.fe.helical3d import Helical3DLTCA
 
-        raise ModelError("export_vtu: only the plane (spur) model can be exported; the helical slice model has no single mesh")
+        if not isinstance(ltca, Helical3DLTCA):
+            raise ModelError("export_vtu: the helical slice model has no single mesh; use the 3D model "
+                             "(build_ltca(..., helical_model='3d'))")
+        from gearrom.fe.loaded3d import LoadedPair3D
+        from gearrom.fe.mesh3d import Mesh3DSettings
+
+        return LoadedPair3D(ltca, settings if isinstance(settings, Mesh3DSettings) else None).write_vtu(theta, torque, path)
     res = ltca.solve(theta, torque)
     cands = ltca.candidates(theta)
     pts_all, cells, disp, pres, vm, gear_id = [], [], [], [], [], []
@@ -123,7 +131,7 @@ def export_inp(pair, theta: float, torque: float, path: str | Path, settings: Me
     if pair.is_helical:
         from gearrom.errors import ModelError
 
-        raise ModelError("export_inp: only spur pairs can be written as a deck (the helical model is a slice approximation)")
+        raise ModelError("export_inp: only spur pairs can be written as a deck (no Abaqus deck of the 3D helical model yet)")
     s = settings or MeshSettings(refined_teeth=1)
     if s.refined_teeth < 1:
         s = dataclasses.replace(s, refined_teeth=1)

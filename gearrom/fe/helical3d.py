@@ -297,6 +297,7 @@ class Helical3DLTCA:
                     roll1=d["roll1"], force_c=sol.f, pressure=sol.f / (self.d_mu * self.d_lam),
                     pairs=self.pair_range.copy(), pair_force=pf, z=d["z"]))
             if not grow:
+                self.last_state = (theta, mesh_index, K, d)  # candidates of the last solve (exports, checks)
                 return results
             K *= 2
         raise SolverError(f"contact zone reaches the candidate window{where} even at {K * self.d_mu * 1e3:.2f} mm")
