@@ -12,6 +12,10 @@ common face width, each gear cut to the sector that meshes during the run (the r
 its reference node); selective mass scaling to a 2.2e-8 s step (the added mass is in the metadata);
 contact penalty factor 0.1, hourglass stiffness 0.1.
 This is a long job (about half an hour per speed on one core): run it in the background.
+
+STATUS: the 3D contact of this model is not stable yet (see gearrom.fe.explicit.helical3d, "Known
+problem"): a 2000 rpm run of this script (2594 s wall) ended with an energy balance error of 262 J and
+contact loss; no helical reference is committed until that is fixed.
 """
 from __future__ import annotations
 
@@ -36,6 +40,9 @@ OUTLINE, BODY, GRADING, LAYERS, MASS_SCALING_DT = 0.3e-3, 2.5e-3, 1.0e-3, 8, 2.2
 #: 3D contact penalty and hourglass stiffness (the spur's 0.3 penalty made the 3D node-to-facet contact
 #: pump energy in bursts under load; 0.1 keeps the energy balance, with little change of the TE)
 PENALTY, HOURGLASS = 0.1, 0.1
+#: output layer planes half a layer off the input's: with matching planes every contact node sits on a master
+#: facet crease, and switching between the two facets' normals pumped energy into the run in bursts
+STAGGER = False
 
 
 def main(rpm: float, periods: int = 5, settle_periods: int = 1, out_dir: Path = HERE,
@@ -50,7 +57,7 @@ def main(rpm: float, periods: int = 5, settle_periods: int = 1, out_dir: Path = 
                           mass_scaling_dt=MASS_SCALING_DT, penalty_scale=PENALTY, hourglass_stiffness=HOURGLASS)
     t0 = time.perf_counter()
     res, te, info = run_helical_pair(pair, meshes, setup, t_end=t_end, sample_period=1.0 / (f_mesh * 128),
-                                     n_layers=LAYERS, parallel=False)
+                                     n_layers=LAYERS, parallel=False, stagger=STAGGER)
     wall = time.perf_counter() - t0
     stem = Path(out_dir) / f"helical_{int(rpm)}rpm"
     t_start = ramp + settle_periods / f_mesh
@@ -67,6 +74,7 @@ def main(rpm: float, periods: int = 5, settle_periods: int = 1, out_dir: Path = 
         "dt_stable_s": res.meta["dt_stable_s"], "mass_scaling_dt_s": MASS_SCALING_DT,
         "added_mass_kg": res.meta["added_mass_kg"], "total_mass_kg": res.meta["total_mass_kg"],
         "n_steps": res.meta["n_steps"], "wall_s": wall, "penalty_scale": PENALTY, "hourglass_stiffness": HOURGLASS,
+        "staggered_layers": STAGGER,
         "sector_model": True, "removed_inertia_kgm2": info["removed_inertia_kgm2"],
         "ns_per_element_step": wall / (res.meta["n_steps"] * res.meta["n_elements"]) * 1e9,
         "hourglass_ratio": res.hourglass_ratio, "energy_error": res.energy_error,

@@ -37,11 +37,11 @@ def test_layers_follow_the_helix(helical, coarse_meshes):
     n_layers = 4
     model, info = helical_pair_model(helical, coarse_meshes, GearPairSetup(), n_layers)
     x = np.asarray(model.nodes)
-    n2d, off = info["n_nodes_2d"], info["n_gear1_2d"]
-    mid = x[2 * n2d:2 * n2d + off]                      # layer 2 of 4 is z = 0
+    off = info["n_gear1_2d"]                            # input nodes: layer by layer, first in the model
+    mid = x[2 * off:3 * off]                            # layer 2 of 4 is z = 0
     r1 = 0.5 * helical.d[0]
     for k in range(n_layers + 1):
-        lay = x[k * n2d:k * n2d + off]
+        lay = x[k * off:(k + 1) * off]
         z = lay[0, 2]
         a = z * math.tan(helical.beta) / r1
         c, s = math.cos(a), math.sin(a)
@@ -97,3 +97,46 @@ def test_rejects_spur_pair_and_bad_layers(helical, coarse_meshes):
         helical_pair_model(spur, coarse_meshes, GearPairSetup(), 4)
     with pytest.raises(ConfigError, match="n_layers"):
         helical_pair_model(helical, coarse_meshes, GearPairSetup(), 0)
+
+
+def test_no_initial_overclosure_across_the_face(helical, coarse_meshes):
+    """The start position keeps the clearance everywhere: the 3D contact kernel finds no penetrating node at t = 0.
+
+    (Seed pair: negative tip-root clearance and a tip-fillet interference below the root form circles;
+    the contact sets stop at the root form circle, as the quasi-static LTCA's flanks do.)
+    """
+    from gearrom.fe.explicit.contact import contact_forces_3d, contact_search
+    from gearrom.fe.explicit.driver import prepare
+
+    model, info = helical_pair_model(helical, coarse_meshes, GearPairSetup(), 4, run_angle=0.05)
+    d = prepare(model, 0.9, 32)
+    x = np.array(model.nodes)
+    contact_search(x, d["slaves"], d["s_pair"], d["segs"], d["g_pair"], d["g_rad"], d["margin"] + d["p_depth"].max(),
+                   d["head"], d["nxt"], d["cand"], d["ncand"], d["cell_h"])
+    assert d["ncand"].sum() > 0                      # the flanks are within reach of each other
+    f = np.zeros_like(x)
+    energy, _ = contact_forces_3d(x, np.zeros_like(x), d["slaves"], d["s_pair"], d["segs"], d["g_k"], d["cand"],
+                                  d["ncand"], d["p_mu"], d["p_vreg"], d["p_depth"], f, d["gap"])
+    assert energy == 0.0 and np.all(d["gap"] >= 0)
+    assert min(info["layer_slack_m"]) > -1e-3         # every layer's rigid touch was bracketed and found
+
+
+RUN_MISS = ("3D node-to-facet penalty contact of the helical pair is not stable yet: energy is created as the flanks "
+            "load up (seed pair: negative tip-root clearance, tip-fillet interference below the root form circles; "
+            "slave nodes on the facet creases between layers), see the helical3d module notes")
+
+
+@pytest.mark.xfail(strict=True, reason=RUN_MISS)
+def test_coarse_run_energy_balance(helical, coarse_meshes):
+    """A short coarse run at 2000 rpm under the torque ramp: the energy balance closes (reference: energy
+    conservation of the undamped central-difference scheme; the error is the unaccounted energy) within 5 %
+    of the external work, and the output lags the input (TE > 0 once loaded)."""
+    from gearrom.fe.explicit.helical3d import run_helical_pair
+
+    setup = GearPairSetup(rpm_in=2000.0, torque_out=120.0, torque_ramp_time=0.15e-3, penalty_scale=0.1,
+                          hourglass_stiffness=0.1, mass_scaling_dt=3e-8)
+    res, te, _ = run_helical_pair(helical, coarse_meshes, setup, t_end=0.2e-3, sample_period=5e-6, n_layers=4,
+                                  parallel=False)
+    work = np.max(np.abs(res.energies[:, 8]))
+    assert np.max(np.abs(res.energies[:, 9])) < 0.05 * work
+    assert te[-1] > 0
