@@ -140,3 +140,15 @@ def test_coarse_run_energy_balance(helical, coarse_meshes):
     work = np.max(np.abs(res.energies[:, 8]))
     assert np.max(np.abs(res.energies[:, 9])) < 0.05 * work
     assert te[-1] > 0
+
+
+def test_staggered_layers(helical, coarse_meshes):
+    """stagger=True: output planes at the input's mid-layers (plus the two end faces); valid Hex8 elements."""
+    from gearrom.fe.explicit.geometry import element_geometry
+
+    model, info = helical_pair_model(helical, coarse_meshes, GearPairSetup(), 2, stagger=True)
+    b = info["width_m"]
+    assert np.allclose(info["z_layers"][0], [-b / 2, 0.0, b / 2])
+    assert np.allclose(info["z_layers"][1], [-b / 2, -b / 4, b / 4, b / 2])
+    _, vol, _, _ = element_geometry(np.asarray(model.nodes), np.asarray(model.elements))
+    assert np.all(vol > 0)
