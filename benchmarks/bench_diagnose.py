@@ -188,9 +188,12 @@ def main(argv=None) -> int:
         if not args.quick:
             names = [n for n in CASES if not args.cases or n in args.cases.split(",")]
             sims: dict = {}
-            figures["matrix"] = {n: run_case(tmp, n, sims) for n in names}
-            figures["matrix_passed"] = sum(r["pass"] for r in figures["matrix"].values())
-            figures["matrix_cases"] = len(figures["matrix"])
+            figures["matrix"] = {}
+            for n in names:  # results written after every case (a long matrix on a loaded machine)
+                figures["matrix"][n] = run_case(tmp, n, sims)
+                figures["matrix_passed"] = sum(r["pass"] for r in figures["matrix"].values())
+                figures["matrix_cases"] = f"{len(figures['matrix'])} of {len(names)}"
+                write_result("bench_diagnose", figures)
         figures["peak_memory_MB"] = peak_memory_MB()
     write_result("bench_diagnose", figures)
     return 0

@@ -20,7 +20,7 @@ channel's first edge):
   no mesh modulation, no motion of the other shaft, no speed or load dependence.
 * ``tip_relief`` (target gear, ``amount_um``, ``start_diameter_mm``), ``lead_crowning``
   (``amount_um``), ``helix_slope`` (``amount_um`` over the face width): flank modifications acting
-  through the mesh excitation table (analytical slices now, FE tables later): mesh harmonics.
+  through the change of the mesh excitation table (quasi-static FE tables, no FE solve): mesh harmonics.
 * ``torsional_mode``: a mis-tuned rig parameter (``parameter``, ``scale``) and the mode it moves
   (``frequency_hz``, ``damping_ratio``).
 

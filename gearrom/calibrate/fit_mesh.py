@@ -1,10 +1,13 @@
 """Candidates acting on the mesh excitation or the rig: flank modifications and mis-tuned modes.
 
 * :class:`Micro` (``tip_relief``, ``lead_crowning``, ``helix_slope``): the STE change of the GMF
-  harmonics from the micro-geometry model (analytical slices until the FE tables exist, then the
-  tables without a new FE solve), through the run's sensitivity ``H(h z1)``. When the nominal model
-  has no GMF content to align, the mesh phase is estimated together with the modification, and the
-  nominal GMF lines are rotated consistently.
+  harmonics from the micro-geometry model (the quasi-static FE tables without a new FE solve by
+  default), through the run's sensitivity ``H(h z1)``, plus the response to the change of the mean
+  mesh stiffness (one re-simulation per run with the stiffness x0.9). When the nominal model has no
+  GMF content to align, the mesh phase is estimated together with the modification (the nominal
+  GMF lines rotated consistently); else the estimate from the nominal lines may move by +-5 % of a
+  mesh period (a flank change moves the GMF phases that estimate was made from). The leading
+  candidates are refined by re-simulation.
 * :class:`RigMode` (``torsional_mode``): one rig parameter scaled, by re-simulation; the mesh phase
   is re-estimated from the re-tuned model's own GMF lines, as for the nominal model.
 """

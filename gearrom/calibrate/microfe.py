@@ -35,7 +35,7 @@ from gearrom.calibrate.microgeom import MicroMods, SliceMicroModel
 from gearrom.excitation.table import MeshExcitation
 
 log = logging.getLogger(__name__)
-CODE_VERSION = 2
+CODE_VERSION = 3
 SPUR_SLICES = 8  # face slices of a spur pair (uniform unless a lead modification is set)
 _MEMORY: dict = {}
 _LTCA: dict = {}
@@ -85,11 +85,17 @@ class FEMicroModel:
         Directory of the result cache (``True``: ``<FE cache>/../calibrate``; ``None``/``False``: memory only).
     fallback : bool
         Use :class:`~gearrom.calibrate.microgeom.SliceMicroModel` with a warning when the FE LTCA cannot be built.
+    helical_model : {"slices", "3d"}
+        LTCA of helical pairs (``build_ltca(..., helical_model=...)``). Default: the plane-strain slices
+        (FE cache ~30 s per gear, ~0.4 s per modification). ``"3d"``: the 3D FE model (cold FE ~8 min per
+        gear, then ~5-20 s per modification): the better physics for lead modifications, too slow for
+        the ~50 modifications one diagnosis evaluates unless its FE cache is warm.
     """
 
     n_positions: int = 24
     cache_dir: str | Path | bool | None = True
     fallback: bool = True
+    helical_model: str = "slices"
 
     @property
     def name(self) -> str:
@@ -104,14 +110,15 @@ class FEMicroModel:
 
     def ltca(self, pair):
         """The LTCA of ``pair``'s geometry (compliances from the FE cache), or None when it cannot be built."""
-        key = _pair_key(pair)
+        key = (_pair_key(pair), self.helical_model)
         if key not in _LTCA:
             try:
                 from gearrom.fe.sweep import build_ltca
 
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore")  # the slice approximation is stated in the table definition
-                    lt = build_ltca(pair)  # the config's pair: shares the FE cache with `gearrom stiffness`
+                    kw = {"helical_model": self.helical_model} if pair.is_helical else {}
+                    lt = build_ltca(pair, **kw)  # the config's pair: shares the FE cache with `gearrom stiffness`
                     if not pair.is_helical:  # lead modifications vary over the face: slices of the plane model
                         from gearrom.fe.helical import HelicalSliceLTCA
 
@@ -131,7 +138,7 @@ class FEMicroModel:
         ltca = self.ltca(pair)
         if ltca is None:
             return SliceMicroModel().excitation(pair, tq, mods)
-        key = hashlib.sha1(json.dumps([CODE_VERSION, _pair_key(pair), repr(mods), tq, self.n_positions]).encode()
+        key = hashlib.sha1(json.dumps([CODE_VERSION, _pair_key(pair), repr(mods), tq, self.n_positions, self.helical_model]).encode()
                            ).hexdigest()[:24]
         if key in _MEMORY:
             return _MEMORY[key]
@@ -165,16 +172,22 @@ class FEMicroModel:
 
         The analytical tables (and :class:`~gearrom.calibrate.microgeom.SliceMicroModel`) put the entry of
         pair 0 at one face end at theta = 0; the FE LTCA of a helical pair puts it at the mid-face slice,
-        i.e. the analytical angle is ``theta_FE + b tan(beta_b) / (2 r_b1)``. Zero for spur pairs.
+        i.e. the analytical angle is ``theta_FE + b tan(beta_b) / (2 r_b1)`` (taken from the LTCA's strip
+        shifts, so the 3D model's convention is followed too). Zero for spur pairs.
         """
         lt = self.ltca(pair)
         if lt is None or not pair.is_helical:
             return 0.0
-        return 0.5 * pair.face_width * math.tan(pair.beta_b) / pair.rb[0]
+        sh = np.asarray(getattr(lt, "shift", [0.0]), float)  # input-angle shift of each face strip
+        if sh.size < 2:
+            return 0.5 * pair.face_width * math.tan(pair.beta_b) / pair.rb[0]
+        return float(np.max(sh) + 0.5 * abs(sh[1] - sh[0]))  # the face end that enters first
 
 
 def _rebuild(ltca, pair):
     """The same LTCA class with the same compliances for a pair with other flank modifications."""
+    if hasattr(ltca, "with_pair"):
+        return ltca.with_pair(pair)
     if hasattr(ltca, "n_slices"):
         return type(ltca)(pair, ltca.c, window=ltca.window, tol=ltca.tol, n_slices=ltca.n_slices)
     return type(ltca)(pair, ltca.c, window=ltca.window, tol=ltca.tol)

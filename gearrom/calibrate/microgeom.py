@@ -84,7 +84,7 @@ class MicroMods:
 
 
 class MicroGeometryModel(Protocol):
-    """Anything that turns flank modifications into a mesh excitation table (FE tables later)."""
+    """Anything that turns flank modifications into a mesh excitation table (:class:`~gearrom.calibrate.microfe.FEMicroModel`, or this module's slices)."""
 
     def excitation(self, pair: GearPair, torques_Nm, mods: MicroMods) -> MeshExcitation:  # pragma: no cover
         ...

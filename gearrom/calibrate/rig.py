@@ -205,7 +205,7 @@ class TorsionalRig:
         p = self.params.scaled(rig_scale)
         rb1, rb2 = self.pair.rb
         if k_mesh is None:
-            k_mesh = float(np.mean(self._table(1.0, MicroMods())[0]))
+            k_mesh = float(np.mean(self._table(1.0, self.micro)[0]))
         km = k_mesh * p.mesh_stiffness
         M = np.diag([p.J_motor, p.J_in, p.J_out, p.J_load])
         K = np.zeros((4, 4))

@@ -56,9 +56,11 @@ def one_tooth(z: int, k: int, f: float) -> tuple:
 
 @pytest.mark.parametrize("key,inj,effect,target,amp,phase_rad", [
     ("ecc_out", RomInjected(runout=(Runout(1, 15e-6, 0.3),)), "eccentricity", "output_gear", 15.0, 0.3),
-    ("ecc_in", RomInjected(runout=(Runout(0, 12e-6, -1.0),)), "eccentricity", "input_gear", 12.0, -1.0),
+    pytest.param("ecc_in", RomInjected(runout=(Runout(0, 12e-6, -1.0),)), "eccentricity", "input_gear", 12.0, -1.0,
+                 marks=pytest.mark.slow),  # the input gear's runout is also in test_two_effects_at_once
     ("enc_in", RomInjected(encoder={"input_encoder": (12.0, 0.5)}), "encoder_eccentricity", "input_encoder", 12.0, 0.5),
-    ("enc_out", RomInjected(encoder={"output_encoder": (8.0, 2.5)}), "encoder_eccentricity", "output_encoder", 8.0, 2.5),
+    pytest.param("enc_out", RomInjected(encoder={"output_encoder": (8.0, 2.5)}), "encoder_eccentricity",
+                 "output_encoder", 8.0, 2.5, marks=pytest.mark.slow),  # also in test_two_effects_at_once
 ])
 def test_once_per_rev_effects(rom_diagnosed, key, inj, effect, target, amp, phase_rad):
     """Gear runout (ROM: kinematic error + mesh modulation) vs encoder eccentricity of either shaft."""
@@ -121,7 +123,10 @@ def test_flank_modifications(rom_diagnosed, key, config, mods, effect, target, a
     res, _ = rom_diagnosed(key, RomInjected(micro=mods), config=config)
     e = _first(res)
     assert (e["effect"], e["target"]) == (effect, target), res.text()
-    assert e["parameters"]["amount_um"] == pytest.approx(amount, rel=0.25)
+    found = e["parameters"]["amount_um"]
+    if effect == "helix_slope" and config == "thesis-spur":
+        found = abs(found)  # a spur face is mirror-symmetric: +f and -f slope over the face give the same TE
+    assert found == pytest.approx(amount, rel=0.25)
     _halved(res)
 
 
