@@ -216,5 +216,5 @@ def with_micro(base: MeshExcitation, model, pair, torque: float, nominal: MicroM
     meta["micro_change"] = {"model": getattr(model, "name", type(model).__name__), "nominal": repr(nominal),
                             "modified": repr(mods)}
     return MeshExcitation(z1=base.z1, theta=th, torque=np.array([float(torque)]), k=k[None, :], e=e[None, :],
-                          load_share=ls[None], definition=base.definition + "; micro-geometry change added",
+                          load_share=ls[None], pairs=base.pairs, definition=base.definition + "; micro-geometry change added",
                           metadata=meta)

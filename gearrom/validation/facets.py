@@ -31,7 +31,7 @@ def _rot(p: np.ndarray, c: np.ndarray, a: float) -> np.ndarray:
 
 def faceted_rigid_te(pair, meshes, theta_in: np.ndarray, share: np.ndarray, phase0: float, clearance: float = 1e-6,
                      radius: float = 1.2e-3, zero_start: bool = False, force: float | None = None,
-                     stiffness: np.ndarray | None = None) -> np.ndarray:
+                     stiffness: np.ndarray | None = None, pairs: np.ndarray | None = None) -> np.ndarray:
     """Kinematic TE [m] of the explicit FE's faceted outlines at the input angles ``theta_in`` [rad, from the FE start].
 
     Each tooth pair ``k`` in contact (load share ``share[:, k] > 0``; pair 0 entered contact at the table
@@ -59,6 +59,9 @@ def faceted_rigid_te(pair, meshes, theta_in: np.ndarray, share: np.ndarray, phas
         Flank patch radius around each pair's contact point, m.
     zero_start : bool
         Subtract the value at the first angle.
+    pairs : ndarray of int, optional
+        Pair index of each ``share`` column (:attr:`MeshExcitation.pairs`; pair p entered contact p mesh
+        periods before pair 0); default ``0 .. n_pairs-1``.
     """
     from matplotlib.path import Path
 
@@ -87,6 +90,9 @@ def faceted_rigid_te(pair, meshes, theta_in: np.ndarray, share: np.ndarray, phas
     period = 2 * math.pi / z1
     phi = np.mod(phase0 + np.asarray(theta_in, float), period)
     n_pairs = share.shape[1]
+    pairs = np.arange(n_pairs) if pairs is None else np.asarray(pairs, int)
+    if pairs.shape != (n_pairs,):
+        raise MeshError(f"faceted_rigid_te: {pairs.size} pair indices for {n_pairs} load-share columns")
     te = np.zeros(len(phi))
     for j, (th, ph) in enumerate(zip(np.asarray(theta_in, float), phi)):
         q1 = _rot(p1, c1, th)
@@ -97,7 +103,7 @@ def faceted_rigid_te(pair, meshes, theta_in: np.ndarray, share: np.ndarray, phas
         for k in range(n_pairs):
             if w[k] <= 1e-6:
                 continue
-            point = t1 + n_loa * (pair.roll_start_active[0] + rb1 * ph + k * pair.pb_t)
+            point = t1 + n_loa * (pair.roll_start_active[0] + rb1 * ph + pairs[k] * pair.pb_t)
             sel1 = drive1 & (np.hypot(*(q1 - point).T) < radius)
             near1 = q1[sel1]
 

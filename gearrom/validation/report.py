@@ -143,7 +143,8 @@ def facet_kinematic_te(pair, excitation, torque: float, outline: float, body: fl
     idx = np.round(np.mod(phase0 + th, period) / period * share_tab.shape[0]).astype(int) % share_tab.shape[0]
     meshes = [gear_quad_mesh(pair, i, outline, body) for i in (0, 1)]
     k = np.asarray(excitation.stiffness(np.mod(phase0 + th, period), torque), float)
-    return step, faceted_rigid_te(pair, meshes, th, share_tab[idx], phase0, force=torque / pair.rb[1], stiffness=k)
+    return step, faceted_rigid_te(pair, meshes, th, share_tab[idx], phase0, force=torque / pair.rb[1], stiffness=k,
+                                  pairs=getattr(excitation, "pairs", None))
 
 
 def validate_speed(pair, rpm: float, fe: FERecord, excitation, excitation_label: str, inertia_out: float,
