@@ -2,13 +2,14 @@
 default mesh (refined_teeth = 1), at positions in double contact, single contact and the
 extended-contact zones, plus the CalculiX run of the exported deck at one position.
 
-Run: python benchmarks/bench_stiffness_crosscheck.py
+Run: python benchmarks/bench_stiffness_crosscheck.py [--quick]
 """
 from __future__ import annotations
 
 import os
 import shutil
 import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -21,17 +22,35 @@ from gearrom.fe.fullcontact import FullContactModel
 from gearrom.fe.mesh2d import MeshSettings
 from gearrom.fe.sweep import build_ltca
 
-CASES = [(0.1, 120.0), (0.5, 120.0), (0.8, 120.0), (0.93, 20.0), (0.88, 120.0), (0.97, 120.0), (0.93, 120.0)]
+CASES = [(0.1, 120.0), (0.5, 120.0), (0.8, 120.0), (0.93, 20.0), (0.93, 60.0), (0.88, 120.0), (0.97, 120.0),
+         (0.93, 120.0)]
+
+
+def edge_share(ltca, theta: float, res) -> float:
+    """Share of the LTCA's line-of-action force carried on the tip edge roundings at ``theta``."""
+    import numpy as np
+
+    cands = ltca.candidates(theta)
+    c1, c2 = ltca.c
+    u1 = np.concatenate([c1.sigma[c[1]] + c[8] * c1.spacing for c in cands])
+    u2 = np.concatenate([c2.sigma[np.minimum(c[2], c2.sigma.size - 1)] + c[3] * c2.spacing for c in cands])
+    lam = np.concatenate([c[9] for c in cands])
+    on_edge = (u1 > c1.u_edge) | (u2 > c2.u_edge)
+    return float((res.force_c * lam)[on_edge].sum() / res.force) if res.force_c.size == on_edge.size else float("nan")
+
+
+QUICK_CASES = [(0.1, 120.0), (0.5, 120.0), (0.93, 60.0), (0.93, 120.0)]
 
 
 def main() -> None:
+    quick = "--quick" in sys.argv  # four cases, no CalculiX run (for a loaded machine)
     pair = load_config("thesis-spur").pair
     s = MeshSettings(refined_teeth=1)
     t0 = time.perf_counter()
     ltca = build_ltca(pair, s, cache_dir=None)
     full = FullContactModel(pair, s)
     rows = []
-    for frac, tq in CASES:
+    for frac, tq in (QUICK_CASES if quick else CASES):
         th = frac * ltca.period
         a = ltca.solve(th, tq)
         t = time.perf_counter()
@@ -39,10 +58,13 @@ def main() -> None:
         rows.append({"theta_over_period": frac, "torque_Nm": tq, "ste_ltca_um": a.ste * 1e6, "ste_full_um": b.ste * 1e6,
                      "ste_rel_diff_percent": 100 * (b.ste / a.ste - 1),
                      "k_rel_diff_percent": 100 * ((b.force / b.ste) / a.stiffness - 1),
-                     "pair_force_ltca_N": a.pair_force.tolist(), "full_time_s": time.perf_counter() - t})
+                     "pair_force_ltca_N": a.pair_force.tolist(), "pairs": a.pairs.tolist(),
+                     "ltca_force_share_on_tip_edge_roundings": edge_share(ltca, th, a),
+                     "full_time_s": time.perf_counter() - t})
         print(rows[-1], flush=True)
     figures = {"rows": rows, "total_time_s": time.perf_counter() - t0}
-    if shutil.which("ccx"):
+    figures["quick"] = quick
+    if shutil.which("ccx") and not quick:
         th = 0.5 * ltca.period
         guess = ltca.solve(th, 120.0)
         with tempfile.TemporaryDirectory() as d:
@@ -60,8 +82,10 @@ def main() -> None:
             else:
                 figures["calculix"] = {"error": run.stdout[-500:]}
     figures["peak_memory_MB"] = peak_memory_MB()
-    figures["note"] = ("2 cores shared with other helpers; theta = 0.93 at 120 N m has three pairs in (extended) "
-                       "corner contact, where the two formulations differ most")
+    figures["note"] = ("2 cores shared with other helpers. Tip edges rounded (0.15 mm) in both meshes, but the full "
+                       "FE (gearrom.fe.fullcontact) detects contact on the involute curves only: where the LTCA "
+                       "carries load on the roundings (ltca_force_share_on_tip_edge_roundings > 0) the full FE "
+                       "misses that contact and is softer; those rows are not a cross-check")
     write_result("bench_stiffness_crosscheck", figures)
 
 
