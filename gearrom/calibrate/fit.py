@@ -50,7 +50,7 @@ class FitSettings:
     min_effect_noise: float = 0.5
     kappa: float = 25.0
     ambiguity: float = 0.002
-    shared_shaft_phase: bool = True
+    shared_shaft_phase: bool = False  # True only for runs recorded from a common index (same angle zero)
     rig_parameters: tuple[str, ...] = ("k_clutch", "k_shaft_in", "mesh_stiffness")
     candidates: tuple[str, ...] | None = None
 

@@ -26,7 +26,9 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--effects", help="comma-separated subset of the library to consider "
                         "(eccentricity,pitch_error,tip_relief,lead_crowning,helix_slope,encoder_eccentricity,torsional_mode)")
     parser.add_argument("--per-run-phase", action="store_true",
-                        help="shaft-order phases per run (when the files do not start at the encoder index)")
+                        help="shaft-order phases per run (the default; kept for compatibility)")
+    parser.add_argument("--shared-phase", action="store_true",
+                        help="one shaft-order phase for all runs: only when every file starts at the encoder index")
     parser.add_argument("--micro-model", choices=("fe", "slices"), default="fe",
                         help="flank modifications through the quasi-static FE tables (default; no FE solve per "
                              "modification, the FE cache is built once per gear) or the analytical thin slices")
@@ -48,7 +50,7 @@ def run(args: argparse.Namespace) -> int:
             check_name(n)
     if args.max_effects < 0:
         raise CalibrationError(f"--max-effects={args.max_effects} must be >= 0")
-    settings = FitSettings(max_effects=args.max_effects, candidates=names, shared_shaft_phase=not args.per_run_phase)
+    settings = FitSettings(max_effects=args.max_effects, candidates=names, shared_shaft_phase=args.shared_phase and not args.per_run_phase)
     sim = default_simulator(args.config, prefer=args.simulator)
     micro = None
     if args.micro_model == "slices":
