@@ -25,7 +25,7 @@ def main() -> None:
     warnings.simplefilter("ignore")
     pair = load_config("thesis-helical").pair
     t0 = time.perf_counter()
-    ltca = build_ltca(pair, cache_dir=None)
+    ltca = build_ltca(pair, cache_dir=None, helical_model="slices")
     t1 = time.perf_counter()
     res = mesh_cycle(ltca, [120.0], 64)
     t2 = time.perf_counter()

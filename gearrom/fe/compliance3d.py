@@ -222,6 +222,7 @@ def compute_compliance3d(pair, i: int, settings: Mesh3DSettings | None = None, n
         reads.append(body.probe_matrix(Xb - dep[:, None] * Nb, -Nb, f"gear {i} tooth {j} read-out points"))
     R = sp.vstack(reads).tocsr()
     U = body.solve(F)
+    backend = body.backend
     body.release()  # the factor (GBs in MKL memory) is not needed any more
     G = (R @ U).reshape(offsets.size, n, n).transpose(0, 2, 1)  # G[k][a (load), b (response)]
     t3 = time.perf_counter()
@@ -235,7 +236,7 @@ def compute_compliance3d(pair, i: int, settings: Mesh3DSettings | None = None, n
         raise MeshError(f"gear {i}: non-positive flank self-compliance in the 3D model (normals or mesh inverted)")
     info = {"nodes": int(mesh.points.shape[0]), "tets": int(mesh.tets.shape[0]), "dofs": int(body.ndof),
             "section_nodes": int(mesh.section.points.shape[0]), "layers": int(mesh.zeta.size - 1),
-            "solver": body.backend, "time_mesh_s": t1 - t0, "time_factorise_s": t2 - t1,
+            "solver": backend, "time_mesh_s": t1 - t0, "time_factorise_s": t2 - t1,
             "time_influence_s": t3 - t2, "settings": asdict(s), "n_sigma": n_sigma, "n_zeta": n_zeta,
             "depth": depth, "gear": i}
     log.info("gear %d 3D compliance: %d dofs, %d patches, %.1f s", i, body.ndof, n, time.perf_counter() - t0)

@@ -118,17 +118,21 @@ class Helical3DLTCA:
         Candidates within this distance of the ideal contact line [m] (grows automatically).
     tol : float
         Allowed penetration after the solve [m].
+    window : float, optional
+        Alias of ``half_window`` (the keyword of the other LTCA classes; attribute ``window``).
     """
 
     def __init__(self, pair, compliances, n_slices: int = 24, d_mu: float = 0.03e-3, half_window: float = 0.18e-3,
-                 tol: float = 1e-11) -> None:
+                 tol: float = 1e-11, window: float | None = None) -> None:
         if n_slices < 4:
             raise SolverError(f"n_slices must be >= 4, got {n_slices}")
+        half_window = half_window if window is None else window
         if not 0 < d_mu < half_window:
             raise SolverError(f"need 0 < d_mu < half_window, got {d_mu}, {half_window} m")
         self.pair, self.c, self.tol = pair, tuple(compliances), tol
         self.n_slices, self.d_mu = int(n_slices), float(d_mu)
-        self.K = int(math.ceil(half_window / d_mu))
+        self.K = int(math.ceil(half_window / d_mu - 1e-9))
+        self.window = self.K * self.d_mu
         b = pair.face_width
         self.dz = b / n_slices
         self.z = -0.5 * b + (np.arange(n_slices) + 0.5) * self.dz
@@ -317,7 +321,7 @@ class Helical3DLTCA:
 
     def with_pair(self, pair) -> "Helical3DLTCA":
         """Same compliances and settings, new micro-geometry / errors (no FE solve)."""
-        return Helical3DLTCA(pair, self.c, self.n_slices, self.d_mu, self.K * self.d_mu, self.tol)
+        return Helical3DLTCA(pair, self.c, self.n_slices, self.d_mu, self.window, self.tol)
 
 
 def contact_pattern(result: HelicalPositionResult, pair, n_z: int = 24, n_roll: int = 40):
