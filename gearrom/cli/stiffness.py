@@ -25,6 +25,8 @@ def add_args(parser) -> None:
     parser.add_argument("--vtu", type=Path, metavar="VTU", help="write the loaded state at theta = 0 (first torque) for ParaView")
     parser.add_argument("--inp", type=Path, metavar="INP", help="write the Abaqus/CalculiX deck at theta = 0 (first torque)")
     parser.add_argument("--mesh-factor", type=float, default=1.0, help="scale all mesh sizes (refinement studies)")
+    parser.add_argument("--helical-model", choices=("3d", "slices"), default="3d",
+                        help="helical pairs: 3D FE compliances (default) or uncoupled plane-strain slices")
     parser.add_argument("--no-cache", action="store_true", help="do not read or write the FE cache")
     parser.add_argument("--cache-dir", type=Path, help="FE cache directory (default $GEARROM_CACHE_DIR/fe or ~/.cache/gearrom/fe)")
 
@@ -47,7 +49,12 @@ def run(args) -> int:
     if n < 4:
         raise ConfigError(f"--positions must be >= 4, got {n}")
     cache = False if args.no_cache else (args.cache_dir or True)
-    ltca = build_ltca(cfg.pair, settings, cache)
+    settings3d = None
+    if cfg.pair.is_helical and args.helical_model == "3d" and args.mesh_factor != 1.0:
+        from gearrom.fe.mesh3d import Mesh3DSettings
+
+        settings3d = Mesh3DSettings().scaled(args.mesh_factor)
+    ltca = build_ltca(cfg.pair, settings, cache, helical_model=args.helical_model, settings3d=settings3d)
     res = mesh_cycle(ltca, torques, n, metadata={"config": cfg.name, "config_digest": cfg.digest()})
     iso = mesh_stiffness(cfg.pair) * cfg.pair.face_width
     j0 = int(abs(res.torque - float(torques[0])).argmin())  # the first torque given leads the JSON
