@@ -16,7 +16,7 @@ import math
 import numpy as np
 
 from gearrom.errors import MeshError
-from gearrom.fe.explicit.gearpair import outline_order
+from gearrom.fe.explicit.gearpair import first_touch, outline_order
 
 log = logging.getLogger(__name__)
 
@@ -115,13 +115,7 @@ def faceted_rigid_te(pair, meshes, theta_in: np.ndarray, share: np.ndarray, phas
             lo, up = -hi, hi
             if overlap(lo) or not overlap(up):
                 continue                                  # this pair's flank patch is not bracketed: skip it
-            for _ in range(40):
-                mid = 0.5 * (lo + up)
-                if overlap(mid):
-                    up = mid
-                else:
-                    lo = mid
-            gaps[k] = rb2 * lo - clearance                # the FE's TE is zero at the clearance-free start
+            gaps[k] = rb2 * first_touch(overlap, lo, up, iterations=40) - clearance                # the FE's TE is zero at the clearance-free start
         ok = np.isfinite(gaps)
         if not ok.any():
             raise MeshError(f"no tooth pair in rigid contact at input angle {th:.6g} rad")

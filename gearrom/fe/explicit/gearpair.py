@@ -146,6 +146,18 @@ def outline_order(segs: np.ndarray) -> np.ndarray:
             raise MeshError("gear outline is not a single closed loop")
 
 
+def first_touch(overlap, lo: float, hi: float, iterations: int = 50) -> float:
+    """Bisection of a bracket ``overlap(lo) is False``, ``overlap(hi) is True``: the largest rotation
+    found without overlap (rad). The caller checks the bracket (its error message says why it fails)."""
+    for _ in range(iterations):
+        mid = 0.5 * (lo + hi)
+        if overlap(mid):
+            hi = mid
+        else:
+            lo = mid
+    return lo
+
+
 def _touch_angle(n1, loop1, n2, loop2, center2, hi: float) -> float:
     """Largest counter-clockwise turn of gear 2 (about ``center2``) without overlap, by bisection."""
     from matplotlib.path import Path
@@ -170,13 +182,7 @@ def _touch_angle(n1, loop1, n2, loop2, center2, hi: float) -> float:
         raise MeshError("gears overlap in the start position: check the centre distance and tooth phasing")
     if not overlap(hi):
         raise MeshError("gears do not touch within half a pitch: check the centre distance")
-    for _ in range(50):
-        mid = 0.5 * (lo + hi)
-        if overlap(mid):
-            hi = mid
-        else:
-            lo = mid
-    return lo
+    return first_touch(overlap, lo, hi)
 
 
 def gear_pair_model(pair, meshes, setup: GearPairSetup, material: Material | None = None) -> tuple[ExplicitModel, dict]:

@@ -48,7 +48,8 @@ import numpy as np
 
 from gearrom.errors import ConfigError, MeshError
 from gearrom.fe.explicit.driver import solve
-from gearrom.fe.explicit.gearpair import GearPairSetup, gear_pair_model, outline_order, transmission_error
+from gearrom.fe.explicit.gearpair import (GearPairSetup, first_touch, gear_pair_model, outline_order,
+                                          transmission_error)
 from gearrom.fe.explicit.model import ExplicitModel, Material, boundary_segments
 from gearrom.fe.explicit.result import ExplicitResult
 
@@ -145,13 +146,7 @@ def _drive_touch(n1, loop1, drive1, n2, loop2, drive2, c2, span: float, r_root: 
     lo, hi = -span, span
     if overlap(lo) or not overlap(hi):
         raise MeshError(f"helical pair: drive flanks not bracketed within +-{span:.4g} rad of the start position")
-    for _ in range(50):
-        mid = 0.5 * (lo + hi)
-        if overlap(mid):
-            hi = mid
-        else:
-            lo = mid
-    return lo
+    return first_touch(overlap, lo, hi)
 
 
 def _outer_loop_segments(elements2d: np.ndarray, bore: set) -> np.ndarray:
