@@ -42,6 +42,7 @@ def machine_info() -> dict:
         "python": sys.version.split()[0],
         "numpy": numpy.__version__,
         "date_utc": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        "load_average_1_5_15min_at_write": [round(x, 2) for x in os.getloadavg()],
     }
 
 

@@ -99,7 +99,7 @@ def main() -> None:
         "crosscheck_3_positions": cross, "crosscheck_and_slices_s": t6 - t5,
         "load_share_pairs": s["load_share_pairs"],
         "max_pair_share": float(np.max(res.load_share[0])),
-        "note": ("2 cores shared with other helpers' jobs (load average 7-9) while this ran; "
+        "note": ("load average at write in the machine section (above ~1: the 2 cores were shared with other jobs); "
                  "OPENBLAS_NUM_THREADS=1; MKL PARDISO via pypardiso for the 3D factorisations"),
     }
     write_result("bench_stiffness_helical3d", figures)

@@ -68,8 +68,8 @@ def main() -> None:
         "ratio_single_pair_to_iso_c_prime": single.stiffness / (single_stiffness(pair) * b),
         "ste_ptp_um_60_240Nm": [new_torque.summary(j)["ste_ptp_um"] for j in range(2)],
         "ste_ptp_um_120Nm_long_tip_relief_10um": res_relief.summary(0)["ste_ptp_um"],
-        "note": ("2 cores shared with other helpers' jobs while this ran (load average above); wall times are upper "
-                 "bounds, the process CPU times (all threads of this process) are what this run itself used"),
+        "note": ("wall times are upper bounds when the load average above exceeds ~1 (2 cores shared with other "
+                 "jobs); the process CPU times (all threads of this process) are what this run itself used"),
     }
     write_result("bench_stiffness_spur", figures)
 

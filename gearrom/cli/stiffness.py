@@ -21,6 +21,8 @@ def add_args(parser) -> None:
     parser.add_argument("--positions", type=int, default=None, help="mesh positions per cycle (default 64)")
     parser.add_argument("--json", type=Path, metavar="OUT", help="write the results as JSON")
     parser.add_argument("--plot", type=Path, metavar="PNG", help="plot STE, stiffness, load share, pressure")
+    parser.add_argument("--pattern", type=Path, metavar="PNG",
+                        help="helical pairs: plot the contact pattern over the mesh cycle (first torque)")
     parser.add_argument("--save", type=Path, metavar="NC", help="write the MeshExcitation table (NetCDF)")
     parser.add_argument("--vtu", type=Path, metavar="VTU", help="write the loaded state at theta = 0 (first torque) for ParaView")
     parser.add_argument("--inp", type=Path, metavar="INP", help="write the Abaqus/CalculiX deck at theta = 0 (first torque)")
@@ -48,6 +50,9 @@ def run(args) -> int:
     n = args.positions or int(extra.get("positions", 64))
     if n < 4:
         raise ConfigError(f"--positions must be >= 4, got {n}")
+    if args.pattern and not cfg.pair.is_helical:
+        raise ConfigError(f"--pattern: {cfg.name} is a spur pair; the contact pattern over face width x profile is "
+                          "computed for helical pairs only")
     cache = False if args.no_cache else (args.cache_dir or True)
     settings3d = None
     if cfg.pair.is_helical and args.helical_model == "3d" and args.mesh_factor != 1.0:
@@ -77,6 +82,9 @@ def run(args) -> int:
     if args.plot:
         args.plot.parent.mkdir(parents=True, exist_ok=True)
         res.plot().savefig(args.plot, dpi=120)
+    if args.pattern:
+        args.pattern.parent.mkdir(parents=True, exist_ok=True)
+        res.plot_pattern(j0).savefig(args.pattern, dpi=120)
     if args.save:
         res.to_excitation().save(args.save)
     if args.vtu or args.inp:

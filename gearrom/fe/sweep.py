@@ -66,6 +66,11 @@ class StiffnessResult:
         (-1: the next pair, in contact only prematurely; 0 enters at theta = 0...).
     max_pressure : ndarray (m, n)
         Largest contact pressure [Pa].
+    pattern : ndarray (m, n, n_z, n_roll), optional
+        Helical pairs: the contact pattern, largest contact pressure [Pa] per bin of face width x
+        input-gear roll length (profile), per torque and position (:func:`gearrom.fe.helical3d.contact_pattern`).
+    pattern_z, pattern_roll : ndarray, optional
+        Bin edges of ``pattern``: axial position [m] (0 = mid-face) and input roll length [m].
     """
 
     z1: int
@@ -80,6 +85,9 @@ class StiffnessResult:
     max_pressure: np.ndarray
     definition: str = DEFINITION
     metadata: dict = field(default_factory=dict)
+    pattern: np.ndarray | None = None
+    pattern_z: np.ndarray | None = None
+    pattern_roll: np.ndarray | None = None
 
     @property
     def load_share(self) -> np.ndarray:
@@ -124,7 +132,21 @@ class StiffnessResult:
             "load_share": self.load_share[j].tolist(),
             "load_share_pairs": self.pairs.tolist(),
             "max_contact_pressure_MPa_per_position": (self.max_pressure[j] * 1e-6).tolist(),
+            **({"contact_pattern": self.pattern_summary(j)} if self.pattern is not None else {}),
         }
+
+    def pattern_summary(self, j: int = -1) -> dict:
+        """Contact pattern at torque index ``j`` over the mesh cycle (JSON-ready): the largest pressure
+        per face-width x profile bin over all positions (what marking compound would show), and the
+        loaded area share per position."""
+        env = self.pattern[j].max(axis=0)
+        zc = 0.5 * (self.pattern_z[1:] + self.pattern_z[:-1])
+        rc = 0.5 * (self.pattern_roll[1:] + self.pattern_roll[:-1])
+        return {"definition": "largest contact pressure per bin over the mesh cycle; rows: axial position z "
+                              "(0 = mid-face), columns: input-gear roll length (profile, root to tip)",
+                "z_mm": (zc * 1e3).tolist(), "roll_input_mm": (rc * 1e3).tolist(),
+                "max_pressure_MPa": (env * 1e-6).tolist(),
+                "loaded_bins_share_per_position": (self.pattern[j] > 0).mean(axis=(1, 2)).tolist()}
 
     # ---------------------------------------------------------------- I/O
     def save(self, path: str | Path) -> Path:
@@ -133,6 +155,8 @@ class StiffnessResult:
         path.parent.mkdir(parents=True, exist_ok=True)
         arrays = {k: getattr(self, k) for k in ("theta", "torque", "ste", "ste_kinematic", "k_secant", "k_tangent",
                                                "pair_force", "pairs", "max_pressure")}
+        if self.pattern is not None:
+            arrays.update(pattern=self.pattern, pattern_z=self.pattern_z, pattern_roll=self.pattern_roll)
         np.savez(path, z1=self.z1, meta=json.dumps({"definition": self.definition, "metadata": self.metadata},
                                                    default=str), **arrays)
         return path
@@ -141,9 +165,10 @@ class StiffnessResult:
     def load(cls, path: str | Path) -> "StiffnessResult":
         with np.load(path) as d:
             meta = json.loads(str(d["meta"]))
+            opt = {k: d[k] for k in ("pattern", "pattern_z", "pattern_roll") if k in d.files}
             return cls(z1=int(d["z1"]), **{k: d[k] for k in ("theta", "torque", "ste", "ste_kinematic", "k_secant",
                                                               "k_tangent", "pair_force", "pairs", "max_pressure")},
-                       definition=meta["definition"], metadata=meta["metadata"])
+                       definition=meta["definition"], metadata=meta["metadata"], **opt)
 
     def plot(self):
         """STE, stiffness, load share and pressure over the mesh period (all torques)."""
@@ -170,6 +195,29 @@ class StiffnessResult:
         ax[2].legend(fontsize=7)
         ax[3].set_xlabel("input gear angle in mesh period [deg]")
         ax[0].set_title(self.metadata.get("config", "FE LTCA"), fontsize=9)
+        fig.tight_layout()
+        return fig
+
+    def plot_pattern(self, j: int = -1):
+        """Helical pairs: the contact pattern over the mesh cycle at torque index ``j`` (largest
+        pressure per bin over all positions), face width x profile."""
+        if self.pattern is None:
+            from gearrom.errors import ModelError
+
+            raise ModelError("no contact pattern in this result (spur pair, or a result saved without one)")
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        fig, ax = plt.subplots(figsize=(7, 4))
+        env = self.pattern[j].max(axis=0) * 1e-6
+        im = ax.pcolormesh(self.pattern_z * 1e3, self.pattern_roll * 1e3, env.T, cmap="viridis", shading="flat")
+        fig.colorbar(im, ax=ax, label="largest contact pressure over the cycle [MPa]")
+        ax.set_xlabel("axial position z [mm] (0 = mid-face)")
+        ax.set_ylabel("input roll length [mm] (root -> tip)")
+        ax.set_title(f"{self.metadata.get('config', 'FE LTCA')}: contact pattern at {self.torque[j]:.4g} N m",
+                     fontsize=9)
         fig.tight_layout()
         return fig
 
@@ -227,6 +275,7 @@ def mesh_cycle(ltca: SpurLTCA, torques, n_positions: int = 64, mesh_index: int =
     ks, kt, pmax = np.zeros((m, n)), np.zeros((m, n)), np.zeros((m, n))
     pf = np.zeros((m, n, npair))
     kin = np.zeros(n)
+    pattern = edges = None
     t0 = time.perf_counter()
     eps = 1e-3
     for i, th in enumerate(theta):
@@ -240,6 +289,13 @@ def mesh_cycle(ltca: SpurLTCA, torques, n_positions: int = 64, mesh_index: int =
             pmax[j, i] = r.max_pressure
             pf[j, i] = r.pair_force
             kt[j, i] = (eps * r.force / (res[m + j].ste - r.ste)) if tangent else np.nan
+            if getattr(r, "z", None) is not None:  # helical: contact pattern over face width x profile
+                from gearrom.fe.helical3d import contact_pattern
+
+                ze, re_, pat = contact_pattern(r, ltca.pair, n_z=getattr(ltca, "n_slices", 24))
+                if pattern is None:
+                    pattern, edges = np.zeros((m, n) + pat.shape), (ze, re_)
+                pattern[j, i] = pat
     pairs = ltca.pair_range.copy()
     span = _loaded_span(pf)
     if span[0] or span[-1]:
@@ -255,7 +311,9 @@ def mesh_cycle(ltca: SpurLTCA, torques, n_positions: int = 64, mesh_index: int =
             ltca, "model_description", f"{getattr(ltca, 'n_slices', 0)} uncoupled transverse slices")
     return StiffnessResult(z1=ltca.pair.z[0], theta=theta, torque=torques, ste=ste, ste_kinematic=kin, k_secant=ks,
                            k_tangent=kt, pair_force=pf, pairs=pairs, max_pressure=pmax,
-                           definition=definition, metadata=meta)
+                           definition=definition, metadata=meta, pattern=pattern,
+                           pattern_z=None if edges is None else edges[0],
+                           pattern_roll=None if edges is None else edges[1])
 
 
 def stiffness_sweep(pair, torques, n_positions: int = 64, settings: MeshSettings | None = None,

@@ -35,6 +35,7 @@ def test_cli_stiffness_json_plot_table(tmp_path, capsys):
 @pytest.mark.parametrize("argv, msg", [
     (["--torque-Nm", "-5"], "--torque-Nm"),
     (["--positions", "2"], "--positions"),
+    (["--pattern", "p.png"], "helical pairs only"),
 ])
 def test_cli_stiffness_bad_input(argv, msg, capsys):
     assert main(["stiffness", "thesis-spur", "--no-cache", *argv]) == 2
