@@ -87,9 +87,10 @@ class FEMicroModel:
         Use :class:`~gearrom.calibrate.microgeom.SliceMicroModel` with a warning when the FE LTCA cannot be built.
     helical_model : {"slices", "3d"}
         LTCA of helical pairs (``build_ltca(..., helical_model=...)``). Default: the plane-strain slices
-        (FE cache ~30 s per gear, ~0.4 s per modification). ``"3d"``: the 3D FE model (cold FE ~8 min per
-        gear, then ~5-20 s per modification): the better physics for lead modifications, too slow for
-        the ~50 modifications one diagnosis evaluates unless its FE cache is warm.
+        (FE cache ~20 s per gear, ~0.2 s per modification). ``"3d"``: the 3D FE model, the better physics
+        for lead modifications (cold FE of both gears ~47 s on an idle 2-core machine, ~0.5 s per
+        modification at 24 positions; benchmarks/results/bench_stiffness_helical3d.json); not yet the
+        default because the helical acceptance cases of the diagnosis were made and checked with slices.
     """
 
     n_positions: int = 24
