@@ -136,7 +136,9 @@ def _evidence(ctx: Context, t: Trial, D: list) -> str:
         txt += f"; impulsive once-per-rev pattern of the {shaft} gear (comb of its shaft orders"
         txt += f", crest factor of the per-revolution average {crest:.2g})" if crest else ")"
     elif name in ("tip_relief", "lead_crowning", "helix_slope"):
-        if t.info.get("psi_rad") is None:
+        if t.info.get("psi_runs_realigned") is not None:
+            ph = "re-estimated from the modified model's own GMF lines, as for the nominal model"
+        elif t.info.get("psi_rad") is None:
             ph = (f"estimated from the nominal GMF, moved by {math.degrees(t.info.get('dpsi_rad', 0.0)):.2f} deg of "
                   "input angle with the modification")
         else:

@@ -200,26 +200,42 @@ class Micro(Candidate):
             info["start_diameter_mm"] = None if dca is None else dca * 1e3  # from the config (not fitted)
         return Trial(self, np.array([v]), contrib, d, 2, info)
 
-    def resimulated(self, ctx: Context, value: float, psi_free) -> list:
+    def resimulated(self, ctx: Context, value: float, psi_free, realign: bool = False) -> tuple[list, list | None]:
         """Contribution by re-simulation (the flank modification also changes the stiffness variation,
-        which the linear ``H x STE change`` misses near the mesh resonance)."""
-        out = []
+        which the linear ``H x STE change`` misses near the mesh resonance).
+
+        ``realign``: the mesh phase of every run is re-estimated from the modified model's own GMF
+        lines (:func:`~gearrom.calibrate.model.realigned`, as for the nominal model and the rig
+        parameters) instead of the linearized fit's phase offset ``psi_free``. Returns the
+        contributions per run and the re-estimated phases (None without ``realign``).
+        """
+        out, psis = [], []
         for m in ctx.models:
+            if realign:
+                mapped, psi = realigned(m, ctx.sim.simulate(m.cond, ModelChanges(micro=self._mods(ctx, value))))
+                out.append(mapped - m.nominal)
+                psis.append(psi)
+                continue
             h = ctx.sim.simulate(m.cond, ModelChanges(micro=self._mods(ctx, value), mesh_phase_rad=_phase(m, psi_free)))
             out.append(map_to_run(h, m.run) - m.nominal)
-        return out
+        return out, (psis if realign else None)
 
     def refine(self, ctx: Context, R: np.ndarray, t: Trial, n_eval: int = 8) -> Trial:
-        """Re-simulated bounded search of the size around the linearized estimate (mesh phase kept)."""
+        """Re-simulated bounded search of the size around the linearized estimate. When every run's mesh
+        phase is identifiable from its GMF lines, each trial size is re-aligned from the modified
+        model's own GMF lines (an estimate, not a fit of the residual: the phase of the GMF lines is
+        so sensitive that a linearized offset of 1e-4 rad decides between look-alike modifications);
+        otherwise the linearized fit's mesh phase is kept."""
         psi = t.info.get("psi_rad", t.info.get("dpsi_rad"))
+        realign = all(m.psi_identifiable for m in ctx.models)
         cache = {}
 
         def dss(v):
             v = float(np.clip(v, self._lo(), self.bound))
             if v not in cache:
-                c = self.resimulated(ctx, v, psi)
+                c, psis = self.resimulated(ctx, v, psi, realign)
                 x = ctx.stack(c)
-                cache[v] = (float(2 * x @ R - x @ x), c)
+                cache[v] = (float(2 * x @ R - x @ x), c, psis)
             return cache[v][0]
 
         v0 = float(t.x[0])
@@ -230,7 +246,10 @@ class Micro(Candidate):
         dss(v0)
         if cache[v0][0] >= cache[best][0]:
             best = v0
-        return Trial(self, np.array([best]), cache[best][1], cache[best][0], t.n_par, {**t.info, "resimulated": True})
+        info = {**t.info, "resimulated": True}
+        if realign:
+            info["psi_runs_realigned"] = cache[best][2]
+        return Trial(self, np.array([best]), cache[best][1], cache[best][0], t.n_par, info)
 
     def report(self, x, info):
         out = {"amount_um": float(x[0])}

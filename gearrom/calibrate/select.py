@@ -10,6 +10,7 @@ from scipy.optimize import lsq_linear
 from gearrom.calibrate.fit import Context, Trial
 from gearrom.calibrate.fit_mesh import Micro, RigMode
 from gearrom.calibrate.microgeom import MicroMods
+from gearrom.calibrate.model import realigned
 from gearrom.calibrate.residual import map_to_run
 from gearrom.calibrate.simulator import ModelChanges
 
@@ -255,7 +256,8 @@ def verification_changes(ctx: Context, accepted: list[Trial], run: int = 0) -> t
         if mt is not None:
             meas = [a + b for a, b in zip(meas, mt)]
     changes = dict(kin, micro=None if micro == ctx.micro_nominal else micro, rig_scale=tuple(rig))
-    return {"changes": changes, "psi_free": psi_free, "psi_runs": psi_runs, "dpsi": dpsi}, meas
+    realign = lead is not None and lead.info.get("psi_runs_realigned") is not None
+    return {"changes": changes, "psi_free": psi_free, "psi_runs": psi_runs, "dpsi": dpsi, "realigned": realign}, meas
 
 
 def verify(ctx: Context, accepted: list[Trial]) -> list[np.ndarray]:
@@ -274,9 +276,15 @@ def verify(ctx: Context, accepted: list[Trial]) -> list[np.ndarray]:
         elif m.psi_identifiable:
             psi = m.psi + spec["dpsi"]
         ch = ModelChanges(mesh_phase_rad=psi, **spec["changes"])
-        if ch.kinematic_in is None and ch.kinematic_out is None and ch.micro is None and not ch.rig_scale \
-                and math.isclose(psi, m.psi):
+        kinematic = ch.kinematic_in is not None or ch.kinematic_out is not None
+        if not kinematic and ch.micro is None and not ch.rig_scale and math.isclose(psi, m.psi):
             out.append(m.nominal + mt)
+            continue
+        if not kinematic and (ch.micro is not None or ch.rig_scale) and m.psi_identifiable and spec["realigned"]:
+            # the changed mesh excitation: mesh phase re-estimated from the changed model's own GMF lines,
+            # as in the re-simulated fits (no shaft-order effect to carry along)
+            mapped, _ = realigned(m, ctx.sim.simulate(m.cond, ModelChanges(**spec["changes"])))
+            out.append(mapped + mt)
             continue
         out.append(map_to_run(ctx.sim.simulate(m.cond, ch), m.run) + mt)
     return out
