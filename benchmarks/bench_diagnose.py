@@ -180,7 +180,7 @@ def main(argv=None) -> int:
         t2 = timed_case(tmp, "b")
         figures = {"diagnose_2runs_2revs_s_first": t1["diagnose_s"], "diagnose_2runs_2revs_s": t2["diagnose_s"],
                    "target_s": 60.0, "timing_case": t2, "load_average_1min": os.getloadavg()[0],
-                   "note": "2 cores shared with other helpers' jobs while measuring (load average above). Timing "
+                   "note": "load average above and in the machine section (above ~1: 2 cores shared with other jobs). Timing "
                            "case: ROM-made data (thesis-rig), runout of the input gear + output encoder eccentricity, "
                            "1250 and 2500 rpm, 2.0 output revolutions each; model = the config's nominal exudyn ROM "
                            "(default simulator); '_first' includes imports, the FE compliance cache (if cold) and "
