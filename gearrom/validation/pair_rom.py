@@ -100,7 +100,9 @@ def scaled_excitation(excitation, torque: float, scale: float):
     """The table with its stiffness multiplied by ``scale`` at ``torque`` and the separation point
     ``e0 = e - F_nom / k`` kept (same kinematic part, static deflection ``F_nom / k`` divided by ``scale``).
 
-    A diagnostic only (how much of a ROM-vs-FE difference is the mean mesh stiffness level).
+    Used by the stiffness-matched diagnostic of :func:`gearrom.validation.report.validate_speed` (fitted
+    to the FE's mean TE: a diagnostic only) and by the ``explicit_scaled`` table
+    (:func:`gearrom.validation.explicit_table.explicit_scaled_excitation`, scale from static data only).
     """
     from dataclasses import replace
 

@@ -131,7 +131,7 @@ def facet_kinematic_te(pair, excitation, torque: float, outline: float, body: fl
                        per_period: int = 32) -> tuple[float, np.ndarray]:
     """Kinematic TE of the FE's faceted outlines over input angles 0..theta_end: (step [rad], values [m])."""
     from gearrom.fe.explicit.gearmesh import gear_quad_mesh
-    from gearrom.validation.facets import faceted_rigid_te
+    from gearrom.validation.facets import faceted_rigid_te, share_rows
     from gearrom.validation.pair_rom import fe_start_mesh_phase
 
     period = 2 * math.pi / pair.z[0]
@@ -140,19 +140,21 @@ def facet_kinematic_te(pair, excitation, torque: float, outline: float, body: fl
     phase0 = fe_start_mesh_phase(pair)
     j = int(np.argmin(np.abs(np.asarray(excitation.torque) - torque)))
     share_tab = np.asarray(excitation.load_share)[j]                       # (n_theta, n_pairs)
-    idx = np.round(np.mod(phase0 + th, period) / period * share_tab.shape[0]).astype(int) % share_tab.shape[0]
     meshes = [gear_quad_mesh(pair, i, outline, body) for i in (0, 1)]
     k = np.asarray(excitation.stiffness(np.mod(phase0 + th, period), torque), float)
-    return step, faceted_rigid_te(pair, meshes, th, share_tab[idx], phase0, force=torque / pair.rb[1], stiffness=k,
+    share = share_rows(share_tab, phase0 + th, period)
+    return step, faceted_rigid_te(pair, meshes, th, share, phase0, force=torque / pair.rb[1], stiffness=k,
                                   pairs=getattr(excitation, "pairs", None))
 
 
 def validate_speed(pair, rpm: float, fe: FERecord, excitation, excitation_label: str, inertia_out: float,
                    inertia_label: str, damping_ratio: float = 0.01,
-                   kinematic: tuple[float, np.ndarray] | None = None) -> SpeedComparison:
+                   kinematic: tuple[float, np.ndarray] | None = None,
+                   table_provenance: dict | None = None) -> SpeedComparison:
     """Run the pair ROM for the FE record's set-up and compare both on the FE's steady window.
 
     ``kinematic``: optional (step, values) kinematic TE over the input angle (the FE outline facets).
+    ``table_provenance``: where the mesh table came from (written to the ROM metadata as ``table``).
     """
     z1 = pair.z[0]
     f_mesh = rpm / 60 * z1
@@ -169,6 +171,7 @@ def validate_speed(pair, rpm: float, fe: FERecord, excitation, excitation_label:
     m_rom = te_metrics(rom.theta_in[wr], rom.te[wr], z1)
     metrics, passed, misses = compare_metrics(m_rom, m_fe)
     meta = dict(rom.meta, excitation=excitation_label, inertia_source=inertia_label, mesh_periods=m_rom["mesh_periods"],
+                table=table_provenance or {"table": "ltca"},
                 geometry=("ideal involute + FE outline facets (per-pair rigid gaps, loaded pairs by stiffness share)" if kinematic is not None
                           else "ideal involute (mesh table only)"))
     if kinematic is not None:       # diagnostic: the ROM of the ideal involute (mesh table only)
@@ -237,12 +240,40 @@ class ValidationReport:
         return fig
 
 
+#: mesh tables of :func:`validate`: the quasi-static LTCA (default) or the LTCA at the explicit FE's static compliance
+TABLES = ("ltca", "explicit_scaled")
+
+
 def validate(config: str, rpms, fe_dir: str | Path | None = None, fresh: bool = False,
-             excitation_source: str = "fe", damping_ratio: float = 0.01, facets: bool = True) -> ValidationReport:
+             excitation_source: str = "fe", damping_ratio: float = 0.01, facets: bool = True,
+             table: str = "ltca") -> ValidationReport:
     """Compare the pair ROM with the explicit FE of ``config`` at each input speed in ``rpms``.
 
-    ``facets``: add the kinematic TE of the FE's faceted outlines to the ROM (same discretised gears).
+    Parameters
+    ----------
+    config : str
+        Config name or path.
+    rpms : sequence of float
+        Input speeds, rev/min.
+    fe_dir : path, optional
+        Folder of the stored FE records (default: the repository's validation/).
+    fresh : bool
+        Run a coarse explicit FE now instead of loading the stored records (spur only).
+    excitation_source : str
+        Source of the LTCA table (:func:`gearrom.validation.pair_rom.mesh_excitation`).
+    damping_ratio : float
+        Mesh damping ratio of the ROM.
+    facets : bool
+        Add the kinematic TE of the FE's faceted outlines to the ROM (same discretised gears).
+    table : str
+        ``"ltca"`` (default): the quasi-static LTCA table (P2, 25 um flanks). ``"explicit_scaled"``: the
+        LTCA table with its stiffness scaled to the static compliance of the explicit FE's own slow run
+        ``spur_60rpm`` (Q4, 0.15 mm outline, penalty contact; scale 0.932, from static data only),
+        :func:`gearrom.validation.explicit_table.explicit_scaled_excitation`; spur pairs, stored records,
+        facets and the LTCA table only. Its provenance is written to each speed's ``rom.table``.
     """
+    if table not in TABLES:
+        raise ConfigError(f"table must be one of {TABLES}, got {table!r}")
     from gearrom.config import load_config
 
     cfg = load_config(config)
@@ -253,6 +284,10 @@ def validate(config: str, rpms, fe_dir: str | Path | None = None, fresh: bool = 
                           "an hour per speed (validation/run_explicit_helical.py RPM): use the stored records")
     prefix = "helical" if helical else "spur"
     facets = facets and not helical
+    if table == "explicit_scaled" and (helical or fresh or not facets or excitation_source != "fe"):
+        raise ConfigError("table='explicit_scaled' comes from the stored 2D spur explicit FE's slow run: it needs a spur "
+                          "pair, stored records (not --fresh: other mesh), the outline facets (the scale is of the "
+                          "elastic part) and the LTCA table (excitation 'fe')")
     fe_dir = Path(fe_dir) if fe_dir is not None else DEFAULT_FE_DIR
     records = {}
     for rpm in rpms:
@@ -265,8 +300,12 @@ def validate(config: str, rpms, fe_dir: str | Path | None = None, fresh: bool = 
     for rpm, fe in records.items():
         torque = float(fe.meta["torque_out_Nm"])
         if torque not in cache:
-            cache[torque] = mesh_excitation(pair, torque, excitation_source, config_name=cfg.name)
-        ex, ex_label = cache[torque]
+            cache[torque] = mesh_excitation(pair, torque, excitation_source, config_name=cfg.name) + (None,)
+            if table == "explicit_scaled":
+                cache[torque] = _explicit_scaled(pair, cache[torque][0], fe_dir, torque)
+        ex, ex_label, provenance = cache[torque]
+        if provenance is not None:
+            _check_same_mesh(provenance, fe)
         key = (fe.meta.get("outline_size_mm", 0.15), fe.meta.get("body_size_mm", 1.5))   # helical: transverse mesh
         if key not in cache:
             cache[key] = output_inertia(pair, key[0] * 1e-3, key[1] * 1e-3)
@@ -275,7 +314,28 @@ def validate(config: str, rpms, fe_dir: str | Path | None = None, fresh: bool = 
         if facets:
             kin = facet_kinematic_te(pair, ex, torque, key[0] * 1e-3, key[1] * 1e-3,
                                      rpm * 2 * math.pi / 60 * float(fe.t[-1]))
-        s = validate_speed(pair, rpm, fe, ex, ex_label, j2, j_label, damping_ratio, kinematic=kin)
+        s = validate_speed(pair, rpm, fe, ex, ex_label, j2, j_label, damping_ratio, kinematic=kin,
+                           table_provenance=provenance)
         s.rom_meta["z1"] = pair.z[0]
         speeds.append(s)
     return ValidationReport(cfg.name, speeds)
+
+
+def _explicit_scaled(pair, reference, fe_dir: Path, torque: float):
+    """(table, label, provenance) of ``table="explicit_scaled"`` from the stored slow run at ``torque``."""
+    from gearrom.validation.explicit_table import explicit_scaled_excitation
+
+    table, label, prov = explicit_scaled_excitation(pair, reference, fe_dir)
+    if abs(prov["slow_run_torque_Nm"] - torque) > 1e-9 * torque:
+        raise ConfigError(f"explicit_scaled: the slow run is at {prov['slow_run_torque_Nm']:g} N m, the record at "
+                          f"{torque:g} N m")
+    return table, label, prov
+
+
+def _check_same_mesh(provenance: dict, fe: FERecord) -> None:
+    """ConfigError unless the slow run behind an ``explicit_scaled`` table used the record's mesh sizes."""
+    for key in ("outline_size_mm", "body_size_mm"):
+        a, b = provenance["fe_meta"].get(key), fe.meta.get(key)
+        if a is None or b is None or abs(float(a) - float(b)) > 1e-9:
+            raise ConfigError(f"explicit_scaled: the slow run's {key} ({a}) differs from the record's ({b}): "
+                              "not the same discretised gears")
