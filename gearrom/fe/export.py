@@ -4,7 +4,8 @@
   writes the two deformed-ready meshes in the global frame (gear 1 centre at the origin, gear 2 at
   (0, a_w)) with point data ``displacement`` [m], ``contact_pressure`` [Pa], ``von_mises`` [Pa], ``gear``
   (helical pairs: the 3D model's tetrahedral gears, :mod:`gearrom.fe.loaded3d`).
-* :func:`export_inp` writes the model of one mesh position as an Abaqus input deck in mm, N, MPa:
+* :func:`export_inp` writes the model of one mesh position as an Abaqus input deck in mm, N, MPa
+  (helical pairs: the 3D sector model, :mod:`gearrom.fe.export3d`); spur pairs:
   both gears as a plane-strain slab of thickness b (one layer of 15-node wedges C3D15 extruded
   from the quadratic triangles, u_z = 0), the input bore on a rigid body (REF/ROT node) loaded by
   the driving moment, the output bore clamped, a surface-to-surface contact pair on the flanks of
@@ -13,9 +14,11 @@
 from __future__ import annotations
 
 import dataclasses
+import logging
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -23,6 +26,11 @@ from gearrom.fe.compliance import patch_operator
 from gearrom.fe.elastic import ElasticBody2D, FacetIndex
 from gearrom.fe.fullcontact import placement
 from gearrom.fe.mesh2d import MeshSettings, gear_mesh
+
+if TYPE_CHECKING:
+    from gearrom.fe.export3d import Inp3DInfo
+
+log = logging.getLogger(__name__)
 
 
 def _rot(phi: float) -> np.ndarray:
@@ -119,19 +127,39 @@ class InpInfo:
     elements: int
 
 
-def export_inp(pair, theta: float, torque: float, path: str | Path, settings: MeshSettings | None = None,
-               penalty_MPa_per_mm: float = 1e7, rotation: float | None = None) -> InpInfo:
-    """Write the Abaqus/CalculiX deck of the spur pair at ``theta`` [rad] and output ``torque`` [N m].
+def export_inp(pair, theta: float, torque: float, path: str | Path, settings=None,
+               penalty_MPa_per_mm: float = 1e7, rotation: float | None = None, *, helical_model: str = "3d",
+               mesh_factor: float = 1.0, contact: str = "surface") -> InpInfo | Inp3DInfo:
+    """Write the Abaqus/CalculiX deck of the pair at ``theta`` [rad] and output ``torque`` [N m].
 
-    With ``rotation`` [rad] the input reference node is turned by that (clockwise negative) angle
-    instead of loaded by the moment (displacement control: no rigid-body mode before contact
-    closes, which CalculiX's static contact needs); the printed RF of the ROT node is then the
-    transmitted moment.
+    Spur pairs: the plane-strain slab (module doc), ``settings`` a :class:`MeshSettings`; returns
+    :class:`InpInfo`. With ``rotation`` [rad] the input reference node is turned by that (clockwise
+    negative) angle instead of loaded by the moment (displacement control: no rigid-body mode
+    before contact closes, which CalculiX's static contact needs); the printed RF of the ROT node
+    is then the transmitted moment.
+
+    Helical pairs: the 3D sector model (:func:`gearrom.fe.export3d.export_inp_3d`; ``settings`` a
+    :class:`~gearrom.fe.mesh3d.Mesh3DSettings`, 2D settings are ignored as by :func:`export_vtu`,
+    ``mesh_factor`` scales it, ``contact`` "surface" or "node"); the output gear carries the moment
+    (or the prescribed ``rotation`` [rad], negative = lagging) and the input is held; returns
+    :class:`gearrom.fe.export3d.Inp3DInfo`. The helical slice model (``helical_model="slices"``) is a
+    stack of unrelated plane-strain sections with no single mesh and cannot be written
+    (:class:`~gearrom.errors.ModelError`).
     """
     if pair.is_helical:
         from gearrom.errors import ModelError
+        from gearrom.fe.export3d import export_inp_3d
+        from gearrom.fe.mesh3d import Mesh3DSettings
 
-        raise ModelError("export_inp: only spur pairs can be written as a deck (no Abaqus deck of the 3D helical model yet)")
+        if helical_model != "3d":
+            raise ModelError(f"export_inp: helical_model={helical_model!r} has no single mesh to write (the slice "
+                             "model is a stack of plane-strain sections); use helical_model='3d'")
+        if settings is not None and not isinstance(settings, Mesh3DSettings):
+            log.warning("export_inp: %s ignored, a helical pair is written as the 3D model "
+                        "(default Mesh3DSettings x mesh_factor)", type(settings).__name__)
+            settings = None
+        return export_inp_3d(pair, theta, torque, path, settings, penalty_MPa_per_mm=penalty_MPa_per_mm,
+                             rotation=rotation, mesh_factor=mesh_factor, contact=contact)
     s = settings or MeshSettings(refined_teeth=1)
     if s.refined_teeth < 1:
         s = dataclasses.replace(s, refined_teeth=1)
