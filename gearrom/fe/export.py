@@ -238,15 +238,29 @@ def export_inp(pair, theta: float, torque: float, path: str | Path, settings=Non
     keep = np.setdiff1d(np.arange(1, nid + 1), bore_sets[0])
     lines += ["*NSET, NSET=NPLANE"] + [",".join(str(x) for x in keep[k:k + 16]) for k in range(0, keep.size, 16)]
     lines += ["*BOUNDARY", "NPLANE,3,3"]
-    lines += ["*SURFACE INTERACTION, NAME=SI", "*SURFACE BEHAVIOR, PRESSURE-OVERCLOSURE=LINEAR",
-              f"{penalty_MPa_per_mm:.6g},0.25", "*CONTACT PAIR, INTERACTION=SI, TYPE=SURFACE TO SURFACE",
-              "SLAVE1,MASTER2"]
-    load = ["*CLOAD", f"{rot},3,{-T1:.9g}"] if rotation is None else ["*BOUNDARY", f"{rot},3,3,{rotation:.12g}"]
-    lines += ["*STEP, INC=200", "*STATIC", "1.0,1.0,1e-4,1.0", *load, "*NODE PRINT, NSET=NROT", "U,RF", "*END STEP"]
+    lines += contact_and_step(f"{penalty_MPa_per_mm:.6g},0.25", "SURFACE TO SURFACE", rot, -T1, rotation)
+    path = write_deck(path, lines)
+    return InpInfo(path=path, rot_node=rot, rb1_mm=pair.rb[0] * 1e3, moment_Nmm=-T1, nodes=nid + 2, elements=eid)
+
+
+def contact_and_step(behaviour: str, contact_type: str, load_node: int, moment_Nmm: float,
+                     rotation: float | None) -> list[str]:
+    """Deck lines shared by the spur and helical decks: contact SLAVE1/MASTER2 with a linear
+    pressure-overclosure ``behaviour`` line, and the static step loaded by ``moment_Nmm`` about z on
+    ``load_node`` (or, with ``rotation`` [rad], that rotation prescribed), printing the NROT set."""
+    load = (["*CLOAD", f"{load_node},3,{moment_Nmm:.9g}"] if rotation is None
+            else ["*BOUNDARY", f"{load_node},3,3,{rotation:.12g}"])
+    return ["*SURFACE INTERACTION, NAME=SI", "*SURFACE BEHAVIOR, PRESSURE-OVERCLOSURE=LINEAR", behaviour,
+            f"*CONTACT PAIR, INTERACTION=SI, TYPE={contact_type}", "SLAVE1,MASTER2",
+            "*STEP, INC=200", "*STATIC", "1.0,1.0,1e-4,1.0", *load, "*NODE PRINT, NSET=NROT", "U,RF", "*END STEP"]
+
+
+def write_deck(path: str | Path, lines: list[str]) -> Path:
+    """Write the deck ``lines`` to ``path`` (folders created)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text("\n".join(lines) + "\n")
-    return InpInfo(path=path, rot_node=rot, rb1_mm=pair.rb[0] * 1e3, moment_Nmm=-T1, nodes=nid + 2, elements=eid)
+    return path
 
 
 def read_ccx_rotation(dat_path: str | Path, rot_node: int) -> tuple[float, float]:

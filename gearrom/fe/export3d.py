@@ -227,7 +227,8 @@ def export_inp_3d(pair, theta: float, torque: float, path: str | Path, settings:
     if not pairs or max(abs(p) for p in pairs) > s.teeth:
         raise ModelError(f"pairs {pairs} can touch at theta = {theta:.6g} rad but the elastic sector has teeth "
                          f"-{s.teeth}..{s.teeth}: use Mesh3DSettings(teeth=...) >= {max(map(abs, pairs), default=0)}")
-    from gearrom.fe.export import _frames  # the spur deck's and LoadedPair3D's placement, lifted to 3D
+    # the spur deck's and LoadedPair3D's placement (lifted to 3D) and the deck lines both decks share
+    from gearrom.fe.export import _frames, contact_and_step, write_deck
 
     frames = [(np.block([[R2, np.zeros((2, 1))], [np.zeros((1, 2)), np.ones((1, 1))]]), np.append(O2, 0.0))
               for R2, O2 in _frames(pair, theta)]
@@ -265,14 +266,9 @@ def export_inp_3d(pair, theta: float, torque: float, path: str | Path, settings:
           f"*RIGID BODY, NSET=BORE2, REF NODE={ref2}, ROT NODE={rot2}",
           "*BOUNDARY", f"{ref1},1,3", f"{rot1},1,3", f"{ref2},1,3", f"{rot2},1,2"]
     behaviour = f"{penalty_MPa_per_mm:.6g}" if contact == "surface" else f"{penalty_MPa_per_mm:.6g},0.25"
-    L += ["*SURFACE INTERACTION, NAME=SI", "*SURFACE BEHAVIOR, PRESSURE-OVERCLOSURE=LINEAR", behaviour,
-          f"*CONTACT PAIR, INTERACTION=SI, TYPE={'SURFACE TO SURFACE' if contact == 'surface' else 'NODE TO SURFACE'}",
-          "SLAVE1,MASTER2"]
-    load = ["*CLOAD", f"{rot2},3,{M2:.9g}"] if rotation is None else ["*BOUNDARY", f"{rot2},3,3,{rotation:.12g}"]
-    L += ["*STEP, INC=200", "*STATIC", "1.0,1.0,1e-4,1.0", *load, "*NODE PRINT, NSET=NROT", "U,RF", "*END STEP"]
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text("\n".join(L) + "\n")
+    L += contact_and_step(behaviour, "SURFACE TO SURFACE" if contact == "surface" else "NODE TO SURFACE", rot2, M2,
+                          rotation)
+    path = write_deck(path, L)
     log.info("wrote %s: %d nodes, %d C3D10, pairs %s", path, nid + 4, eid, pairs)
     return Inp3DInfo(path=path, rot_node=rot2, rb_mm=pair.rb[1] * 1e3, moment_Nmm=M2 if rotation is None else 0.0,
                      nodes=nid + 4, elements=eid, pairs=tuple(pairs), settings=s)
