@@ -29,6 +29,10 @@ def add_args(parser) -> None:
                         help="mesh table of the ROM: quasi-static FE LTCA (default), analytical, or FE with fallback")
     parser.add_argument("--no-facets", action="store_true",
                         help="leave out the kinematic TE of the FE's faceted outlines (ideal involute ROM)")
+    parser.add_argument("--table", choices=("ltca", "explicit_scaled"), default="ltca",
+                        help="ROM mesh table: the quasi-static LTCA (default), or the LTCA scaled to the explicit FE's "
+                             "own static compliance (stored spur records only; see validation/"
+                             "rom_vs_fe_spur_same_discretization.json)")
     parser.add_argument("--damping-ratio", type=float, default=0.01, help="ROM mesh damping ratio (default 0.01)")
 
 
@@ -38,7 +42,7 @@ def run(args) -> int:
     if not args.damping_ratio >= 0:
         raise ConfigError(f"--damping-ratio must be >= 0, got {args.damping_ratio}")
     rep = validate(args.config, args.rpm, fe_dir=args.fe_dir, fresh=args.fresh, excitation_source=args.excitation,
-                   damping_ratio=args.damping_ratio, facets=not args.no_facets)
+                   damping_ratio=args.damping_ratio, facets=not args.no_facets, table=args.table)
     out = rep.to_dict()
     if args.json:
         rep.save(args.json)

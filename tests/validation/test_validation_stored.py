@@ -199,3 +199,14 @@ def test_cli_helical_end_to_end_against_itself(tmp_path, capsys):
     assert s["passed"] is True and s["rom"]["mesh_periods"] == 5
     for key in ("dte_rms_um", "gmf1_amplitude_um"):
         assert abs(s["metrics"][key]["rel_error"]) < 1e-9
+
+
+def test_cli_table_option_refuses_a_fresh_run(capsys):
+    """--table explicit_scaled is the stored spur records' static scale: with --fresh (another mesh) it is
+    refused with a clear message (exit 2), before any FE runs."""
+    from gearrom.cli import main
+
+    rc = main(["validate", "thesis-spur", "--rpm", "1250", "--table", "explicit_scaled", "--fresh"])
+    assert rc == 2
+    assert "explicit_scaled" in capsys.readouterr().err
+
