@@ -267,6 +267,8 @@ def build_ltca(pair, settings: MeshSettings | None = None, cache_dir: str | Path
 def mesh_cycle(ltca: SpurLTCA, torques, n_positions: int = 64, mesh_index: int = 0, tangent: bool = True,
                metadata: dict | None = None) -> StiffnessResult:
     """Solve ``n_positions`` uniform positions of one mesh period at each output torque [N m]."""
+    from gearrom.fe.helical3d import contact_pattern  # helical results only; imported once, not per position
+
     torques = np.sort(np.atleast_1d(np.asarray(torques, float)))
     n = int(n_positions)
     theta = np.arange(n) * ltca.period / n
@@ -276,6 +278,7 @@ def mesh_cycle(ltca: SpurLTCA, torques, n_positions: int = 64, mesh_index: int =
     pf = np.zeros((m, n, npair))
     kin = np.zeros(n)
     pattern = edges = None
+    n_z = getattr(ltca, "n_slices", 24)  # pattern bins over the face: one per strip of the helical models
     t0 = time.perf_counter()
     eps = 1e-3
     for i, th in enumerate(theta):
@@ -290,9 +293,7 @@ def mesh_cycle(ltca: SpurLTCA, torques, n_positions: int = 64, mesh_index: int =
             pf[j, i] = r.pair_force
             kt[j, i] = (eps * r.force / (res[m + j].ste - r.ste)) if tangent else np.nan
             if getattr(r, "z", None) is not None:  # helical: contact pattern over face width x profile
-                from gearrom.fe.helical3d import contact_pattern
-
-                ze, re_, pat = contact_pattern(r, ltca.pair, n_z=getattr(ltca, "n_slices", 24))
+                ze, re_, pat = contact_pattern(r, ltca.pair, n_z=n_z)
                 if pattern is None:
                     pattern, edges = np.zeros((m, n) + pat.shape), (ze, re_)
                 pattern[j, i] = pat
