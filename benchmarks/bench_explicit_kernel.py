@@ -8,6 +8,9 @@ colour) and the serial loop; the better of the two is the headline figure. On a 
 the threaded loop suffers badly (threads wait at every colour barrier), hence both. Targets (issue 5): >= 3e7 for Q4 and
 >= 5e6 for Hex8 on 2 cores. The machine is shared with other helpers: figures may be pessimistic.
 
+``--full-only``: adds the fully integrated Q4 / Hex8 throughput and its cost ratio to the one-point
+elements, both measured in one run on the same meshes, to the existing results file.
+
 ``--helical``: also (or, with ``--helical-only``, only, added to the existing results file) the Hex8
 throughput on the helical gear pair mesh of validation/run_explicit_helical.py (sector model, 8
 twisted layers, with the node-to-facet contact of the flanks), the whole step including contact.
@@ -25,13 +28,27 @@ from gearrom.fe.explicit import ExplicitModel, Material, prepare, solve
 from gearrom.fe.explicit.meshes import box_hex8, rectangle_q4
 
 
-def _model(nodes, elements):
+def _model(nodes, elements, integration: str = "reduced"):
     L = nodes.max(0) - nodes.min(0)
     v0 = np.zeros_like(nodes)
     v0[:, 0] = 0.1 * np.sin(np.pi * nodes[:, 1] / L[1])
     v0[:, 1] = 0.1 * np.sin(np.pi * nodes[:, 0] / L[0])
     return ExplicitModel(nodes, elements, Material(), thickness=0.01, initial_velocity=v0,
-                         hourglass_stiffness=0.05, hourglass_viscosity=0.01)
+                         hourglass_stiffness=0.05, hourglass_viscosity=0.01, integration=integration)
+
+
+def measure_full() -> dict:
+    """One-point vs fully integrated elements on the same meshes, measured back to back (cost ratio)."""
+    out = {}
+    for name, mesh, nsteps in (("q4", rectangle_q4(0.25, 0.2, 250, 200), 2000),
+                               ("hex8", box_hex8(0.04, 0.025, 0.02, 40, 25, 20), 600)):
+        red = measure(_model(*mesh, "reduced"), nsteps)
+        full = measure(_model(*mesh, "full"), nsteps)
+        out[name] = {"reduced_element_updates_per_s": red["element_updates_per_s"],
+                     "full_element_updates_per_s": full["element_updates_per_s"],
+                     "full_cost_ratio": red["element_updates_per_s"] / full["element_updates_per_s"],
+                     "full_dt_ratio": full["dt_s"] / red["dt_s"], "full": full}
+    return out
 
 
 def measure(model, nsteps: int) -> dict:
@@ -88,6 +105,16 @@ def main() -> None:
     import json
     import sys
 
+    if "--full-only" in sys.argv:
+        from _common import RESULTS
+
+        figures = json.loads((RESULTS / "bench_explicit_kernel.json").read_text())["figures"]
+        figures["full_integration"] = measure_full()
+        figures["full_integration_load_average_1_5_15"] = list(os.getloadavg())
+        figures["full_integration_note"] = ("2x2 / 2x2x2 Gauss elements without hourglass control vs the one-point "
+                                            "elements, measured back to back in one run (machine section: its date)")
+        write_result("bench_explicit_kernel", figures)
+        return
     if "--helical-only" in sys.argv:
         from _common import RESULTS
 

@@ -131,7 +131,8 @@ def static_pair_model(pair, meshes, theta_in: float, setup, search: float = 50e-
 
 
 def static_te(pair, meshes, theta_in: float, torque: float = 120.0, alpha: float = 4.0e4, ramp: float = 0.2e-3,
-              t_end: float = 0.45e-3, settle_window: float = 0.1e-3, mass_scaling_dt: float = 2.5e-8) -> StaticPoint:
+              t_end: float = 0.45e-3, settle_window: float = 0.1e-3, mass_scaling_dt: float = 2.5e-8,
+              **setup_kw) -> StaticPoint:
     """Static TE of the explicit FE model at input angle ``theta_in`` [rad] under ``torque`` [N m].
 
     Parameters
@@ -148,12 +149,14 @@ def static_te(pair, meshes, theta_in: float, torque: float = 120.0, alpha: float
         Torque ramp, run end and averaging window at the end, s.
     mass_scaling_dt : float
         Selective mass scaling target step, s (as the 60 rpm run).
+    **setup_kw
+        Further :class:`GearPairSetup` fields (element formulation, hourglass control).
     """
     from gearrom.fe.explicit.driver import solve
     from gearrom.fe.explicit.gearpair import GearPairSetup, transmission_error
 
     setup = GearPairSetup(rpm_in=1e-4, torque_out=torque, torque_ramp_time=ramp, mu=0.0,
-                          mass_scaling_dt=mass_scaling_dt, mass_damping=alpha)
+                          mass_scaling_dt=mass_scaling_dt, mass_damping=alpha, **setup_kw)
     model, info, rigid = static_pair_model(pair, meshes, theta_in, setup)
     t0 = time.perf_counter()
     res = solve(model, t_end, 5e-6, parallel=False)
@@ -165,7 +168,8 @@ def static_te(pair, meshes, theta_in: float, torque: float = 120.0, alpha: float
                         meta={"torque_Nm": torque, "mass_damping_per_s": alpha, "ramp_s": ramp, "t_end_s": t_end,
                               "settle_window_s": settle_window, "mass_scaling_dt_s": mass_scaling_dt,
                               "dt_s": res.meta["dt_s"], "n_steps": res.meta["n_steps"],
-                              "added_mass_kg": res.meta["added_mass_kg"]})
+                              "added_mass_kg": res.meta["added_mass_kg"],
+                              "hourglass_ratio": float(res.hourglass_ratio), **setup_kw})
     log.info("static explicit solve at %.5f rad: TE %.3f um (rigid %.3f um, residual ptp %.3f um), %.0f s",
              theta_in, point.te * 1e6, rigid * 1e6, point.settle_ptp * 1e6, wall)
     return point

@@ -5,7 +5,8 @@ beta1 L = 1.87510407 and, for a plane-strain strip (cylindrical bending of a wid
 E' = E / (1 - nu^2) (Timoshenko & Woinowsky-Krieger, Theory of Plates and Shells, sec. 1).
 L/h = 25: shear and rotary inertia lower f1 by about 0.5 % (Timoshenko beam); one-point Q4 with
 6 elements through the thickness and soft hourglass control is a little more flexible again
-(about 1 % at this mesh). Tolerance 3 %.
+(-1.3 % at this mesh); fully integrated Q4 is stiffer (shear locking of the 2x2 rule: +1.4 %).
+Tolerance 3 % for both.
 Energy: without damping the total (kinetic + internal + hourglass) must stay constant; the
 central-difference scheme is symplectic, so the drift over two periods must be < 0.5 %.
 """
@@ -21,8 +22,8 @@ L, H = 0.25, 0.01
 BL = 1.8751040687
 
 
-@pytest.fixture(scope="module")
-def run():
+@pytest.fixture(scope="module", params=["reduced", "full"])
+def run(request):
     mat = Material()
     nodes, elements = rectangle_q4(L, H, 100, 6, y0=-H / 2)
     e_plane = mat.E / (1 - mat.nu ** 2)
@@ -34,14 +35,15 @@ def run():
     v0[:, 1] = 0.5 * shape / shape.max()
     clamp = np.nonzero(nodes[:, 0] < 1e-12)[0]
     model = ExplicitModel(nodes, elements, mat, thickness=0.01, node_sets={"clamp": clamp},
-                          fixed={"clamp": (0, 1)}, initial_velocity=v0, hourglass_stiffness=0.05)
+                          fixed={"clamp": (0, 1)}, initial_velocity=v0, hourglass_stiffness=0.05,
+                          integration=request.param)
     tip = int(np.argmin(np.abs(nodes[:, 0] - L) + np.abs(nodes[:, 1])))
     res = solve(model, 2.2 / f_eb, sample_period=1 / f_eb / 400, probes=[tip])
-    return res, f_eb
+    return res, f_eb, request.param
 
 
 def test_first_bending_frequency(run):
-    res, f_eb = run
+    res, f_eb, integration = run
     y = res.probe_u[:, 0, 1]
     t = res.t
     i = np.nonzero(y[1:-1] * y[2:] < 0)[0] + 1
@@ -52,7 +54,7 @@ def test_first_bending_frequency(run):
 
 
 def test_energy_conserved_without_damping(run):
-    res, _ = run
+    res, _, integration = run
     total = res.energy("kinetic") + res.energy("internal") + res.energy("hourglass")
     drift = np.abs(total - total[0]).max() / total[0]
     assert drift < 0.005, drift
@@ -60,5 +62,7 @@ def test_energy_conserved_without_damping(run):
 
 
 def test_hourglass_energy_below_one_percent(run):
-    res, _ = run
+    res, _, integration = run
     assert res.hourglass_ratio < 0.01, res.hourglass_ratio
+    if integration == "full":
+        assert np.all(res.energy("hourglass") == 0.0)   # no hourglass modes at all

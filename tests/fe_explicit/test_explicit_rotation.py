@@ -6,11 +6,13 @@ would see eps = sym(grad u) = (cos theta - 1) I, i.e. -1.17 at 100 degrees (chec
 same displacement field so that the test can discriminate). A free block spun with the rigid
 velocity field v = omega z x X keeps rotating rigidly; the only physical strain is the centrifugal
 stretch rho omega^2 r^2 / E ~ 1e-8, so the internal energy must stay below 1e-6 of the kinetic
-energy and the final nodal positions must match R(omega t) X.
+energy and the final nodal positions must match R(omega t) X. Both element integrations (one-point
+with hourglass control, and full 2x2 / 2x2x2 Gauss) are checked.
 """
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from gearrom.fe.explicit import ExplicitModel, Material, solve
 from gearrom.fe.explicit.geometry import element_geometry
@@ -28,12 +30,13 @@ def _rotate(nodes, theta):
     return out
 
 
-def _check(nodes, elements, thickness):
+def _check(nodes, elements, thickness, integration="reduced"):
     nodes = nodes - nodes.mean(axis=0)
     v0 = np.zeros_like(nodes)
     v0[:, 0] = -OMEGA * nodes[:, 1]
     v0[:, 1] = OMEGA * nodes[:, 0]
-    model = ExplicitModel(nodes, elements, Material(), thickness=thickness, initial_velocity=v0)
+    model = ExplicitModel(nodes, elements, Material(), thickness=thickness, initial_velocity=v0,
+                          integration=integration)
     t_end = ANGLE / OMEGA
     res = solve(model, t_end, sample_period=t_end / 50)
     ke = res.energy("kinetic")
@@ -50,11 +53,13 @@ def _check(nodes, elements, thickness):
     return res
 
 
-def test_q4_rigid_rotation_100deg_no_strain():
+@pytest.mark.parametrize("integration", ["reduced", "full"])
+def test_q4_rigid_rotation_100deg_no_strain(integration):
     nodes, elements = rectangle_q4(0.1, 0.05, 10, 5)
-    _check(nodes, elements, 0.01)
+    _check(nodes, elements, 0.01, integration)
 
 
-def test_hex8_rigid_rotation_100deg_no_strain():
+@pytest.mark.parametrize("integration", ["reduced", "full"])
+def test_hex8_rigid_rotation_100deg_no_strain(integration):
     nodes, elements = box_hex8(0.1, 0.05, 0.02, 8, 4, 2)
-    _check(nodes, elements, 1.0)
+    _check(nodes, elements, 1.0, integration)

@@ -10,6 +10,7 @@ The speed is measured by cross-correlating the velocity histories of two station
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from gearrom.fe.explicit import ExplicitModel, Material, NodalLoad, solve, stable_dt
 from gearrom.fe.explicit.meshes import box_hex8, rectangle_q4
@@ -43,11 +44,13 @@ def _probes(nodes, xs):
     return [int(np.argmin(np.abs(nodes[:, 0] - x) + np.abs(nodes[:, 1:]).sum(axis=1))) for x in xs]
 
 
-def test_q4_bar_wave_speed():
+@pytest.mark.parametrize("integration", ["reduced", "full"])
+def test_q4_bar_wave_speed(integration):
     length, n_el = 1.0, 400
     nodes, elements = rectangle_q4(length, 0.01, n_el, 2)
     left, load = _pulse(nodes, length, n_el, 2)
-    model = ExplicitModel(nodes, elements, MAT, thickness=0.01, node_sets={"left": left}, loads=(load,))
+    model = ExplicitModel(nodes, elements, MAT, thickness=0.01, node_sets={"left": left}, loads=(load,),
+                          integration=integration)
     probes = _probes(nodes, (0.25, 0.75))
     res = solve(model, 0.9 * length / C_BAR, sample_period=2 * stable_dt(model), probes=probes)
     c = _measured_speed(nodes, res, 0.25, 0.75)
@@ -55,11 +58,12 @@ def test_q4_bar_wave_speed():
     assert res.energy_error < 1e-2   # O((omega dt)^2) fluctuation of the discrete energy at Courant ~0.9
 
 
-def test_hex8_bar_wave_speed():
+@pytest.mark.parametrize("integration", ["reduced", "full"])
+def test_hex8_bar_wave_speed(integration):
     length, n_el = 0.6, 200
     nodes, elements = box_hex8(length, 0.006, 0.006, n_el, 2, 2)
     left, load = _pulse(nodes, length, n_el, 3)
-    model = ExplicitModel(nodes, elements, MAT, node_sets={"left": left}, loads=(load,))
+    model = ExplicitModel(nodes, elements, MAT, node_sets={"left": left}, loads=(load,), integration=integration)
     probes = _probes(nodes, (0.15, 0.45))
     res = solve(model, 0.9 * length / C_BAR, sample_period=2 * stable_dt(model), probes=probes)
     c = _measured_speed(nodes, res, 0.15, 0.45)

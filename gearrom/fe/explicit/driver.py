@@ -9,6 +9,7 @@ import numpy as np
 
 from gearrom.errors import ConfigError, ModelError
 from gearrom.fe.explicit.geometry import (color_elements, element_geometry, element_max_eigenvalue,
+                                          element_max_eigenvalue_full, full_integration_data,
                                           hourglass_coefficients, nodal_omega2)
 from gearrom.fe.explicit.loop import NE_OUT, ramp, run_loop_parallel, run_loop_serial
 from gearrom.fe.explicit.model import ExplicitModel
@@ -52,13 +53,23 @@ def prepare(model: ExplicitModel, safety: float = 0.9, max_candidates: int = 8) 
     np.add.at(mass, conn0, mat.rho * me)
     if np.any(mass <= 0):
         raise ModelError(f"node {int(np.argmin(mass))} belongs to no element (zero mass)")
-    lam_e = element_max_eigenvalue(B, V0, gamma, lam, mu, khg)
+    ne, nen = conn0.shape
+    full = np.full(ne, model.integration == "full", np.uint8)
+    if full.any():
+        Bg, Wg = full_integration_data(X, conn0, model.thickness)
+        lam_e = element_max_eigenvalue_full(Bg, Wg, lam, mu)
+        khg[:] = 0.0
+        chg[:] = 0.0
+    else:
+        Bg, Wg = np.zeros((ne, 1, nen, dim)), np.zeros((ne, 1))
+        lam_e = element_max_eigenvalue(B, V0, gamma, lam, mu, khg)
     node_w2 = nodal_omega2(conn0, lam_e, mass)
     color = color_elements(conn0, n)
     order = np.argsort(color, kind="stable")
     cptr = np.searchsorted(color[order], np.arange(color.max() + 2)).astype(np.int64)
     d = dict(conn=np.ascontiguousarray(conn0[order]), B=B[order], V0=V0[order], gamma=gamma[order],
-             khg=khg[order], chg=chg[order], cptr=cptr, lam=lam, mu=mu, mass=mass, dim=dim, n=n)
+             khg=khg[order], chg=chg[order], cptr=cptr, lam=lam, mu=mu, mass=mass, dim=dim, n=n,
+             full=full[order], Bg=np.ascontiguousarray(Bg[order]), Wg=np.ascontiguousarray(Wg[order]))
     # fixed DOFs
     fixmask = np.zeros((n, dim), np.uint8)
     for name, comps in model.fixed.items():
@@ -292,7 +303,7 @@ def solve(model: ExplicitModel, t_end: float, sample_period: float | None = None
         sl = slice(row - 1 if c else 0, None)
         written = run_loop(nsteps, step_dt, out_every, t0, model.nodes, u, v, a, f, d["mass"], d["kind"],
                            d["fixmask"], model.mass_damping, d["conn"], d["B"], d["V0"], d["gamma"],
-                           d["khg"], d["chg"], d["lam"], d["mu"], d["cptr"],
+                           d["khg"], d["chg"], d["lam"], d["mu"], d["cptr"], d["full"], d["Bg"], d["Wg"],
                            d["ld_nodes"], d["ld_ptr"], d["ld_force"], d["ld_t"], d["ld_val"], d["ld_npts"],
                            ld_fprev, ld_uprev,
                            d["r_nodes"], d["r_ptr"], d["r_off"], d["r_M"], d["r_J"], d["r_mode"],
@@ -314,7 +325,8 @@ def solve(model: ExplicitModel, t_end: float, sample_period: float | None = None
                 dt_stable_s=d["dt_stable"], n_steps=nsteps_total, t_end_s=nsteps_total * step_dt,
                 sample_period_s=sample_period, wall_time_s=wall,
                 element_updates_per_s=nsteps_total * model.elements.shape[0] / wall,
-                n_colors=int(d["cptr"].size - 1), parallel=bool(parallel), hourglass_stiffness=model.hourglass_stiffness,
+                n_colors=int(d["cptr"].size - 1), parallel=bool(parallel), integration=model.integration,
+                hourglass_stiffness=model.hourglass_stiffness,
                 hourglass_viscosity=model.hourglass_viscosity, mass_damping=model.mass_damping,
                 material=dict(E_Pa=model.material.E, nu=model.material.nu, rho_kg_m3=model.material.rho),
                 thickness_m=model.thickness, references=[r.nodes for r in model.references],

@@ -93,8 +93,10 @@ class GearPairSetup:
         Extra lumped inertias on the input / output references, kg m^2 (drivetrain parts).
     mass_damping : float
         Mass-proportional damping, 1/s.
+    integration : {"reduced", "full"}
+        Element integration (see :class:`ExplicitModel`; "full": no hourglass energy).
     hourglass_stiffness, hourglass_viscosity : float
-        Flanagan-Belytschko coefficients.
+        Flanagan-Belytschko coefficients (one-point elements only).
     mass_scaling_dt : float
         Selective mass scaling target step, s (0: off); see :class:`ExplicitModel`.
     flanks : str
@@ -112,6 +114,7 @@ class GearPairSetup:
     inertia_in: float = 0.0
     inertia_out: float = 0.0
     mass_damping: float = 0.0
+    integration: str = "reduced"
     hourglass_stiffness: float = 0.05
     hourglass_viscosity: float = 0.02
     mass_scaling_dt: float = 0.0
@@ -261,7 +264,8 @@ def gear_pair_model(pair, meshes, setup: GearPairSetup, material: Material | Non
                    "flank_2": np.unique(c2) + off},
         surfaces={"outline_1": c1, "outline_2": c2 + off},
         references=refs, contacts=contacts, initial_velocity=v0, mass_damping=setup.mass_damping,
-        hourglass_stiffness=setup.hourglass_stiffness, hourglass_viscosity=setup.hourglass_viscosity,
+        integration=setup.integration, hourglass_stiffness=setup.hourglass_stiffness,
+        hourglass_viscosity=setup.hourglass_viscosity,
         mass_scaling_dt=setup.mass_scaling_dt)
     info = dict(rb=(rb1, rb2), clearance_angle=setup.clearance / rb2, omega_in=omega1, omega_out=omega2,
                 n_gear1=off, flank_spacing_m=float(np.median(np.linalg.norm(n1[out1[:, 1]] - n1[out1[:, 0]], axis=1))))

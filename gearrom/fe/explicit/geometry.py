@@ -7,6 +7,8 @@ Everything here is computed once per model on the reference configuration (total
 * ``V0`` (ne,): element volume (2D: area times thickness), m^3;
 * ``gamma`` (ne, nen, nmodes): Flanagan-Belytschko hourglass shape vectors
   gamma_k = (h_k - (h_k . x_i) B_i) / nen, which are orthogonal to every linear field;
+* for fully integrated elements (no hourglass modes, no hourglass control): the gradients ``Bg``
+  (ne, ng, nen, dim) and weights ``Wg`` (ne, ng) at the 2^dim Gauss points;
 * lumped nodal masses m_a = rho int N_a dV (row sum of the consistent mass);
 * the stable time step from a nodal Gershgorin-type bound: since u^T K u <= sum_e lambda_e |u_e|^2
   with lambda_e the largest eigenvalue of the element stiffness (one-point part plus hourglass),
@@ -37,16 +39,9 @@ def _shape(xi_nodes: np.ndarray, pts: np.ndarray) -> tuple[np.ndarray, np.ndarra
     return N, dN
 
 
-def element_geometry(nodes: np.ndarray, elements: np.ndarray, thickness: float = 1.0):
-    """Mean gradients, volumes, hourglass vectors and element row-sum masses per unit density.
-
-    Returns
-    -------
-    B : ndarray (ne, nen, dim), 1/m
-    V0 : ndarray (ne,), m^3 (2D: area * thickness)
-    gamma : ndarray (ne, nen, nmodes), -
-    me : ndarray (ne, nen), m^3 (int N_a dV; multiply by rho for the mass)
-    """
+def _gauss(nodes: np.ndarray, elements: np.ndarray):
+    """Shape functions (ng, nen), Cartesian gradients (ne, ng, nen, dim) and det J (ne, ng) at the
+    2^dim Gauss points (weights 1)."""
     dim = nodes.shape[1]
     xi_nodes = _XI2 if dim == 2 else _XI3
     g = 1.0 / np.sqrt(3.0)
@@ -61,6 +56,23 @@ def element_geometry(nodes: np.ndarray, elements: np.ndarray, thickness: float =
                         f"check the node order (Q4 counter-clockwise, Hex8 VTK order)")
     Jinv = np.linalg.inv(J)                                       # dxi_j/dx_i
     dNdX = np.einsum("gaj,egji->egai", dN, Jinv)
+    return N, dNdX, detJ
+
+
+def element_geometry(nodes: np.ndarray, elements: np.ndarray, thickness: float = 1.0):
+    """Mean gradients, volumes, hourglass vectors and element row-sum masses per unit density.
+
+    Returns
+    -------
+    B : ndarray (ne, nen, dim), 1/m
+    V0 : ndarray (ne,), m^3 (2D: area * thickness)
+    gamma : ndarray (ne, nen, nmodes), -
+    me : ndarray (ne, nen), m^3 (int N_a dV; multiply by rho for the mass)
+    """
+    dim = nodes.shape[1]
+    xi_nodes = _XI2 if dim == 2 else _XI3
+    N, dNdX, detJ = _gauss(nodes, elements)
+    X = nodes[elements]
     V = detJ.sum(axis=1)                                          # Gauss weights are 1
     B = np.einsum("egai,eg->eai", dNdX, detJ) / V[:, None, None]
     me = np.einsum("ga,eg->ea", N, detJ)
@@ -79,6 +91,51 @@ def element_geometry(nodes: np.ndarray, elements: np.ndarray, thickness: float =
             np.ascontiguousarray(me))
 
 
+def full_integration_data(nodes: np.ndarray, elements: np.ndarray, thickness: float = 1.0):
+    """Gauss-point gradients and weights of the fully integrated (2x2 / 2x2x2) element.
+
+    Returns
+    -------
+    Bg : ndarray (ne, ng, nen, dim), 1/m
+        dN_a/dX at each Gauss point.
+    Wg : ndarray (ne, ng), m^3
+        Gauss weight times det J (2D: times the thickness); ``Wg.sum(1)`` is the element volume.
+    """
+    _, dNdX, detJ = _gauss(nodes, elements)
+    if nodes.shape[1] == 2:
+        detJ = detJ * thickness
+    return np.ascontiguousarray(dNdX), np.ascontiguousarray(detJ)
+
+
+def _voigt_B(B: np.ndarray) -> np.ndarray:
+    """Voigt strain-displacement matrices (ne, 3 or 6, nen*dim) of gradients ``B`` (ne, nen, dim)."""
+    ne, nen, dim = B.shape
+    if dim == 2:
+        Bv = np.zeros((ne, 3, nen * dim))
+        Bv[:, 0, 0::2] = B[:, :, 0]
+        Bv[:, 1, 1::2] = B[:, :, 1]
+        Bv[:, 2, 0::2] = B[:, :, 1]
+        Bv[:, 2, 1::2] = B[:, :, 0]
+    else:
+        Bv = np.zeros((ne, 6, nen * dim))
+        for i in range(3):
+            Bv[:, i, i::3] = B[:, :, i]
+        for r, (i, j) in enumerate(((1, 2), (0, 2), (0, 1))):
+            Bv[:, 3 + r, i::3] = B[:, :, j]
+            Bv[:, 3 + r, j::3] = B[:, :, i]
+    return Bv
+
+
+def _elasticity_sqrt(dim: int, lam: float, mu: float) -> np.ndarray:
+    if dim == 2:
+        D = np.array([[lam + 2 * mu, lam, 0.0], [lam, lam + 2 * mu, 0.0], [0.0, 0.0, mu]])
+    else:
+        D = np.full((3, 3), lam) + 2 * mu * np.eye(3)
+        D = np.block([[D, np.zeros((3, 3))], [np.zeros((3, 3)), mu * np.eye(3)]])
+    w, Q = np.linalg.eigh(D)
+    return Q @ np.diag(np.sqrt(w)) @ Q.T
+
+
 def hourglass_coefficients(B: np.ndarray, V0: np.ndarray, lam: float, mu: float, rho: float,
                            kappa: float, visc: float) -> tuple[np.ndarray, np.ndarray]:
     """Per-element hourglass stiffness (N/m) and viscosity (N s/m) (Flanagan-Belytschko form)."""
@@ -91,29 +148,23 @@ def hourglass_coefficients(B: np.ndarray, V0: np.ndarray, lam: float, mu: float,
 
 def element_max_eigenvalue(B, V0, gamma, lam, mu, khg) -> np.ndarray:
     """Largest eigenvalue of each element stiffness (one-point part + hourglass), N/m."""
-    ne, nen, dim = B.shape
-    if dim == 2:
-        D = np.array([[lam + 2 * mu, lam, 0.0], [lam, lam + 2 * mu, 0.0], [0.0, 0.0, mu]])
-        Bv = np.zeros((ne, 3, nen * dim))
-        Bv[:, 0, 0::2] = B[:, :, 0]
-        Bv[:, 1, 1::2] = B[:, :, 1]
-        Bv[:, 2, 0::2] = B[:, :, 1]
-        Bv[:, 2, 1::2] = B[:, :, 0]
-    else:
-        D = np.full((3, 3), lam) + 2 * mu * np.eye(3)
-        D = np.block([[D, np.zeros((3, 3))], [np.zeros((3, 3)), mu * np.eye(3)]])
-        Bv = np.zeros((ne, 6, nen * dim))
-        for i in range(3):
-            Bv[:, i, i::3] = B[:, :, i]
-        for r, (i, j) in enumerate(((1, 2), (0, 2), (0, 1))):
-            Bv[:, 3 + r, i::3] = B[:, :, j]
-            Bv[:, 3 + r, j::3] = B[:, :, i]
-    w, Q = np.linalg.eigh(D)
-    Dh = Q @ np.diag(np.sqrt(w)) @ Q.T
+    Dh = _elasticity_sqrt(B.shape[2], lam, mu)
+    Bv = _voigt_B(B)
     G = np.einsum("ij,ejk,elk,lm->eim", Dh, Bv, Bv, Dh)
     lam_cs = np.linalg.eigvalsh(G)[:, -1] * V0
     lam_hg = khg * np.einsum("eak,eak->e", gamma, gamma)
     return lam_cs + lam_hg
+
+
+def element_max_eigenvalue_full(Bg, Wg, lam, mu) -> np.ndarray:
+    """Largest eigenvalue of each fully integrated (linearized) element stiffness, N/m."""
+    ne, ng, nen, dim = Bg.shape
+    Dh = _elasticity_sqrt(dim, lam, mu)
+    K = np.zeros((ne, nen * dim, nen * dim))
+    for g in range(ng):
+        DB = np.einsum("ij,ejk->eik", Dh, _voigt_B(Bg[:, g]))
+        K += Wg[:, g, None, None] * np.einsum("eik,eil->ekl", DB, DB)
+    return np.linalg.eigvalsh(K)[:, -1]
 
 
 def nodal_omega2(elements: np.ndarray, lam_e: np.ndarray, mass: np.ndarray) -> np.ndarray:

@@ -303,7 +303,8 @@ def helical_pair_model(pair, meshes, setup: GearPairSetup, n_layers: int, materi
         nodes, hexes, m2d.material, node_sets=sets,
         surfaces={k: faces(v) for k, v in surfs.items()},
         references=refs, contacts=m2d.contacts, initial_velocity=v0, mass_damping=setup.mass_damping,
-        hourglass_stiffness=setup.hourglass_stiffness, hourglass_viscosity=setup.hourglass_viscosity,
+        integration=setup.integration, hourglass_stiffness=setup.hourglass_stiffness,
+        hourglass_viscosity=setup.hourglass_viscosity,
         mass_scaling_dt=setup.mass_scaling_dt)
     dtw = abs(tw1[1] - tw1[0])
     r_mid = 0.5 * pair.d[0]

@@ -155,3 +155,103 @@ def hex8_element(e, conn, u, v, B, V0, gamma, khg, chg, lam, mu, f):
         f[n, 1] -= P10 * bx + P11 * by + P12 * bz + g0 * q10 + g1 * q11 + g2 * q12 + g3 * q13
         f[n, 2] -= P20 * bx + P21 * by + P22 * bz + g0 * q20 + g1 * q21 + g2 * q22 + g3 * q23
     return wint, whg, phg
+
+
+@njit(cache=True, fastmath=True, inline="always")
+def q4_full_element(e, conn, u, Bg, Wg, lam, mu, f):
+    """Residual contribution of a fully integrated (2x2 Gauss) Q4 element ``e``; returns W_int in J.
+
+    The same total-Lagrangian St Venant-Kirchhoff law as the one-point kernels, evaluated at every
+    Gauss point g with the point gradients ``Bg[e, g]`` and weights ``Wg[e, g]`` (det J times the
+    thickness): f_a -= sum_g Wg P_g Bg_a. The element has no zero-energy modes besides rigid motion,
+    so it needs no hourglass control and has no hourglass energy.
+    """
+    n0 = conn[e, 0]; n1 = conn[e, 1]; n2 = conn[e, 2]; n3 = conn[e, 3]
+    ux0 = u[n0, 0]; uy0 = u[n0, 1]
+    ux1 = u[n1, 0]; uy1 = u[n1, 1]
+    ux2 = u[n2, 0]; uy2 = u[n2, 1]
+    ux3 = u[n3, 0]; uy3 = u[n3, 1]
+    fx0 = 0.0; fy0 = 0.0; fx1 = 0.0; fy1 = 0.0; fx2 = 0.0; fy2 = 0.0; fx3 = 0.0; fy3 = 0.0
+    wint = 0.0
+    for g in range(4):
+        w = Wg[e, g]
+        b0x = Bg[e, g, 0, 0]; b0y = Bg[e, g, 0, 1]
+        b1x = Bg[e, g, 1, 0]; b1y = Bg[e, g, 1, 1]
+        b2x = Bg[e, g, 2, 0]; b2y = Bg[e, g, 2, 1]
+        b3x = Bg[e, g, 3, 0]; b3y = Bg[e, g, 3, 1]
+        F00 = 1.0 + ux0 * b0x + ux1 * b1x + ux2 * b2x + ux3 * b3x
+        F01 = ux0 * b0y + ux1 * b1y + ux2 * b2y + ux3 * b3y
+        F10 = uy0 * b0x + uy1 * b1x + uy2 * b2x + uy3 * b3x
+        F11 = 1.0 + uy0 * b0y + uy1 * b1y + uy2 * b2y + uy3 * b3y
+        E00 = 0.5 * (F00 * F00 + F10 * F10 - 1.0)
+        E11 = 0.5 * (F01 * F01 + F11 * F11 - 1.0)
+        E01 = 0.5 * (F00 * F01 + F10 * F11)
+        tr = E00 + E11
+        S00 = lam * tr + 2.0 * mu * E00
+        S11 = lam * tr + 2.0 * mu * E11
+        S01 = 2.0 * mu * E01
+        P00 = w * (F00 * S00 + F01 * S01)
+        P01 = w * (F00 * S01 + F01 * S11)
+        P10 = w * (F10 * S00 + F11 * S01)
+        P11 = w * (F10 * S01 + F11 * S11)
+        wint += w * (0.5 * lam * tr * tr + mu * (E00 * E00 + E11 * E11 + 2.0 * E01 * E01))
+        fx0 += P00 * b0x + P01 * b0y; fy0 += P10 * b0x + P11 * b0y
+        fx1 += P00 * b1x + P01 * b1y; fy1 += P10 * b1x + P11 * b1y
+        fx2 += P00 * b2x + P01 * b2y; fy2 += P10 * b2x + P11 * b2y
+        fx3 += P00 * b3x + P01 * b3y; fy3 += P10 * b3x + P11 * b3y
+    f[n0, 0] -= fx0; f[n0, 1] -= fy0
+    f[n1, 0] -= fx1; f[n1, 1] -= fy1
+    f[n2, 0] -= fx2; f[n2, 1] -= fy2
+    f[n3, 0] -= fx3; f[n3, 1] -= fy3
+    return wint
+
+
+@njit(cache=True, fastmath=True, inline="always")
+def hex8_full_element(e, conn, u, Bg, Wg, lam, mu, f):
+    """Residual contribution of a fully integrated (2x2x2 Gauss) Hex8 element ``e``; returns W_int in J
+    (as :func:`q4_full_element`)."""
+    wint = 0.0
+    for g in range(8):
+        w = Wg[e, g]
+        F00 = 1.0; F01 = 0.0; F02 = 0.0
+        F10 = 0.0; F11 = 1.0; F12 = 0.0
+        F20 = 0.0; F21 = 0.0; F22 = 1.0
+        for a in range(8):
+            n = conn[e, a]
+            ux = u[n, 0]; uy = u[n, 1]; uz = u[n, 2]
+            bx = Bg[e, g, a, 0]; by = Bg[e, g, a, 1]; bz = Bg[e, g, a, 2]
+            F00 += ux * bx; F01 += ux * by; F02 += ux * bz
+            F10 += uy * bx; F11 += uy * by; F12 += uy * bz
+            F20 += uz * bx; F21 += uz * by; F22 += uz * bz
+        E00 = 0.5 * (F00 * F00 + F10 * F10 + F20 * F20 - 1.0)
+        E11 = 0.5 * (F01 * F01 + F11 * F11 + F21 * F21 - 1.0)
+        E22 = 0.5 * (F02 * F02 + F12 * F12 + F22 * F22 - 1.0)
+        E01 = 0.5 * (F00 * F01 + F10 * F11 + F20 * F21)
+        E02 = 0.5 * (F00 * F02 + F10 * F12 + F20 * F22)
+        E12 = 0.5 * (F01 * F02 + F11 * F12 + F21 * F22)
+        tr = E00 + E11 + E22
+        m2 = 2.0 * mu
+        S00 = lam * tr + m2 * E00
+        S11 = lam * tr + m2 * E11
+        S22 = lam * tr + m2 * E22
+        S01 = m2 * E01
+        S02 = m2 * E02
+        S12 = m2 * E12
+        P00 = w * (F00 * S00 + F01 * S01 + F02 * S02)
+        P01 = w * (F00 * S01 + F01 * S11 + F02 * S12)
+        P02 = w * (F00 * S02 + F01 * S12 + F02 * S22)
+        P10 = w * (F10 * S00 + F11 * S01 + F12 * S02)
+        P11 = w * (F10 * S01 + F11 * S11 + F12 * S12)
+        P12 = w * (F10 * S02 + F11 * S12 + F12 * S22)
+        P20 = w * (F20 * S00 + F21 * S01 + F22 * S02)
+        P21 = w * (F20 * S01 + F21 * S11 + F22 * S12)
+        P22 = w * (F20 * S02 + F21 * S12 + F22 * S22)
+        wint += w * (0.5 * lam * tr * tr + mu * (E00 * E00 + E11 * E11 + E22 * E22
+                                                  + 2.0 * (E01 * E01 + E02 * E02 + E12 * E12)))
+        for a in range(8):
+            n = conn[e, a]
+            bx = Bg[e, g, a, 0]; by = Bg[e, g, a, 1]; bz = Bg[e, g, a, 2]
+            f[n, 0] -= P00 * bx + P01 * by + P02 * bz
+            f[n, 1] -= P10 * bx + P11 * by + P12 * bz
+            f[n, 2] -= P20 * bx + P21 * by + P22 * bz
+    return wint

@@ -25,7 +25,7 @@ from pathlib import Path
 from numba import njit, prange
 
 from gearrom.fe.explicit.contact import contact_forces_2d, contact_forces_3d, contact_search
-from gearrom.fe.explicit.kernels import hex8_element, q4_element
+from gearrom.fe.explicit.kernels import hex8_element, hex8_full_element, q4_element, q4_full_element
 
 NE_OUT = 10
 
@@ -69,7 +69,7 @@ def _table(t, times, vals, npts):
 
 def _run_loop(nsteps, dt, out_every, t0,
              X, u, v, a, f, mass, kind, fixmask, alpha,
-             conn, B, V0, gamma, khg, chg, lam, mu, cptr,
+             conn, B, V0, gamma, khg, chg, lam, mu, cptr, full, Bg, Wg,
              ld_nodes, ld_ptr, ld_force, ld_t, ld_val, ld_npts, ld_fprev, ld_uprev,
              r_nodes, r_ptr, r_off, r_M, r_J, r_mode, r_speed, r_ramp, r_torque, r_tramp,
              r_k, r_c, r_fixtr, r_kb, r_cb, r_pos, r_vel, r_acc, r_th, r_om, r_al, r_prev,
@@ -161,16 +161,22 @@ def _run_loop(nsteps, dt, out_every, t0,
             e1 = cptr[c + 1]
             if dim == 2:
                 for e in prange(e0, e1):
-                    r0, r1, r2 = q4_element(e, conn, u, v, B, V0, gamma, khg, chg, lam, mu, f)
-                    wint += r0
-                    whg += r1
-                    phg += r2
+                    if full[e]:
+                        wint += q4_full_element(e, conn, u, Bg, Wg, lam, mu, f)
+                    else:
+                        r0, r1, r2 = q4_element(e, conn, u, v, B, V0, gamma, khg, chg, lam, mu, f)
+                        wint += r0
+                        whg += r1
+                        phg += r2
             else:
                 for e in prange(e0, e1):
-                    r0, r1, r2 = hex8_element(e, conn, u, v, B, V0, gamma, khg, chg, lam, mu, f)
-                    wint += r0
-                    whg += r1
-                    phg += r2
+                    if full[e]:
+                        wint += hex8_full_element(e, conn, u, Bg, Wg, lam, mu, f)
+                    else:
+                        r0, r1, r2 = hex8_element(e, conn, u, v, B, V0, gamma, khg, chg, lam, mu, f)
+                        wint += r0
+                        whg += r1
+                        phg += r2
         if step > 0:
             acc[0] += phg * dt
         epen = 0.0

@@ -234,6 +234,10 @@ class ExplicitModel:
     loads : tuple of NodalLoad
     fixed : mapping str -> tuple of int
         Node set name -> fixed components (0 = x, 1 = y, 2 = z); displacement held at zero.
+    integration : {"reduced", "full"}
+        "reduced": one-point elements with Flanagan-Belytschko hourglass control (the cheap default);
+        "full": 2x2 (Q4) / 2x2x2 (Hex8) Gauss integration, no hourglass modes and no hourglass energy
+        (about twice the element cost; stiffer in bending of coarse meshes: shear locking).
     hourglass_stiffness : float
         Flanagan-Belytschko stiffness coefficient kappa: k_hg = kappa (lambda + 2 mu) V sum(B^2)/dim.
     hourglass_viscosity : float
@@ -259,6 +263,7 @@ class ExplicitModel:
     contacts: tuple[ContactPair, ...] = ()
     loads: tuple[NodalLoad, ...] = ()
     fixed: Mapping[str, tuple[int, ...]] = field(default_factory=dict)
+    integration: str = "reduced"
     hourglass_stiffness: float = 0.05
     hourglass_viscosity: float = 0.0
     mass_damping: float = 0.0
@@ -302,6 +307,8 @@ class ExplicitModel:
                                                             for k, v in self.fixed.items()}))
         if not self.thickness > 0:
             raise ConfigError(f"ExplicitModel.thickness must be > 0 m, got {self.thickness}")
+        if self.integration not in ("reduced", "full"):
+            raise ConfigError(f"ExplicitModel.integration must be 'reduced' or 'full', got {self.integration!r}")
         for name in ("hourglass_stiffness", "hourglass_viscosity", "mass_damping", "mass_scaling_dt"):
             if not getattr(self, name) >= 0:
                 raise ConfigError(f"ExplicitModel.{name} must be >= 0, got {getattr(self, name)}")
