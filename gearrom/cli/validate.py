@@ -33,6 +33,13 @@ def add_args(parser) -> None:
                         help="ROM mesh table: the quasi-static LTCA (default), or the LTCA scaled to the explicit FE's "
                              "own static compliance (stored spur records only; see validation/"
                              "rom_vs_fe_spur_same_discretization.json)")
+    parser.add_argument("--fe-integration", choices=("reduced", "full"), default=None,
+                        help="stored explicit FE records: fully integrated Q4 without hourglass energy "
+                             "(spur_<rpm>rpm_full.*) or one-point Q4 with hourglass control (spur_<rpm>rpm.*); "
+                             "default: the library's DEFAULT_FE_INTEGRATION")
+    parser.add_argument("--rom", choices=("pair", "exudyn"), default="pair",
+                        help="reduced model: 1-DOF pair ROM with the FE's torque ramp (default) or the same system as "
+                             "an exudyn Drivetrain (the project's drivetrain ROM)")
     parser.add_argument("--damping-ratio", type=float, default=0.01, help="ROM mesh damping ratio (default 0.01)")
 
 
@@ -42,7 +49,8 @@ def run(args) -> int:
     if not args.damping_ratio >= 0:
         raise ConfigError(f"--damping-ratio must be >= 0, got {args.damping_ratio}")
     rep = validate(args.config, args.rpm, fe_dir=args.fe_dir, fresh=args.fresh, excitation_source=args.excitation,
-                   damping_ratio=args.damping_ratio, facets=not args.no_facets, table=args.table)
+                   damping_ratio=args.damping_ratio, facets=not args.no_facets, table=args.table,
+                   rom_model=args.rom, fe_integration=args.fe_integration)
     out = rep.to_dict()
     if args.json:
         rep.save(args.json)

@@ -183,9 +183,11 @@ def simulate_run(config_or_model, rpm_in: float, torque_out_Nm: float | None = N
             cache["rip"] = [law.ripple(a) for a in theta0 * z1 / z2 + omega2 * (idx + 0.5) * h]
 
     def pre_step(mbs_, t):
-        i = int(t * inv_h + 0.5) - cache["start"]
+        # exudyn passes the END time t_n + h of the coming step: the step index is n = t/h - 1
+        n = int(t * inv_h + 0.5) - 1
+        i = n - cache["start"]
         if i >= chunk or i < 0:
-            fill(int(t * inv_h + 0.5))
+            fill(n)
             i = 0
         set_par(conn, "limitStopsStiffness", cache["k"][i])
         set_par(conn, "limitStopsUpper", cache["up"][i])

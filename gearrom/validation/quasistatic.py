@@ -26,8 +26,8 @@ TOLERANCE = 0.05
 
 
 def quasistatic_check(config: str = "thesis-spur", rpm: float = 60.0, fe_dir: str | Path | None = None,
-                      excitation=None) -> dict:
-    """Compare the stored slow explicit FE run ``<fe_dir>/spur_<rpm>rpm.*`` with the quasi-static STE.
+                      excitation=None, integration: str = "reduced") -> dict:
+    """Compare the stored slow explicit FE run ``<fe_dir>/spur_<rpm>rpm[_full].*`` with the quasi-static STE.
 
     Parameters
     ----------
@@ -39,6 +39,8 @@ def quasistatic_check(config: str = "thesis-spur", rpm: float = 60.0, fe_dir: st
         Folder of the stored runs (default: the repository's validation/).
     excitation : MeshExcitation, optional
         Quasi-static table (default: the LTCA sweep at the run's torque, 64 positions, cached).
+    integration : str
+        Element integration of the stored run: "reduced" (``spur_<rpm>rpm``) or "full" (``..._full``).
 
     Returns
     -------
@@ -50,7 +52,7 @@ def quasistatic_check(config: str = "thesis-spur", rpm: float = 60.0, fe_dir: st
     from gearrom.validation.pair_rom import fe_start_mesh_phase, mesh_excitation
 
     pair = load_config(config).pair
-    fe = load_fe_record(fe_dir if fe_dir is not None else DEFAULT_FE_DIR, rpm)
+    fe = load_fe_record(fe_dir if fe_dir is not None else DEFAULT_FE_DIR, rpm, integration=integration)
     torque = float(fe.meta["torque_out_Nm"])
     if excitation is None:
         excitation, _ = mesh_excitation(pair, torque, "fe")
@@ -63,7 +65,7 @@ def quasistatic_check(config: str = "thesis-spur", rpm: float = 60.0, fe_dir: st
     outline, body = fe.meta.get("outline_size_mm", 0.15) * 1e-3, fe.meta.get("body_size_mm", 1.5) * 1e-3
     step, kin = facet_kinematic_te(pair, excitation, torque, outline, body, float(th[-1]))
     ste_f = ste + np.interp(th, np.arange(kin.size) * step, kin)
-    out = {"config": config, "rpm_in": rpm, "torque_out_Nm": torque,
+    out = {"config": config, "rpm_in": rpm, "torque_out_Nm": torque, "integration": integration,
            "mesh_periods": float((th[-1] - th[0]) / period), "tolerance_rel": TOLERANCE}
     out["te_mean_um"] = {"fe": te_fe.mean() * 1e6, "qs": ste.mean() * 1e6, "qs_facets": ste_f.mean() * 1e6,
                          "rel_error": te_fe.mean() / ste_f.mean() - 1.0,

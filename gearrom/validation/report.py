@@ -29,7 +29,7 @@ from gearrom.validation.pair_rom import (PairRomSetup, mesh_excitation, polar_in
 
 log = logging.getLogger(__name__)
 
-__all__ = ["FERecord", "ValidationReport", "load_fe_record", "output_inertia", "validate_speed", "validate"]
+__all__ = ["FERecord", "ValidationReport", "load_fe_record", "record_stem", "output_inertia", "validate_speed", "validate"]
 
 DEFAULT_FE_DIR = Path(__file__).resolve().parents[2] / "validation"
 
@@ -52,14 +52,27 @@ def replace_meta(excitation, **extra):
     return replace(excitation, metadata=dict(excitation.metadata, **extra))
 
 
-def load_fe_record(fe_dir: str | Path, rpm: float, prefix: str = "spur") -> FERecord:
-    """Load ``<fe_dir>/<prefix>_<rpm>rpm.npz/.json``; MeasurementError naming a missing/broken file."""
-    stem = Path(fe_dir) / f"{prefix}_{int(round(rpm))}rpm"
+#: element integration of the explicit FE records: one-point + hourglass control, or full Gauss integration
+FE_INTEGRATIONS = ("reduced", "full")
+
+
+def record_stem(fe_dir: str | Path, rpm: float, prefix: str = "spur", integration: str = "reduced") -> Path:
+    """``<fe_dir>/<prefix>_<rpm>rpm`` (one-point elements) or ``..._full`` (fully integrated elements)."""
+    if integration not in FE_INTEGRATIONS:
+        raise ConfigError(f"FE integration must be one of {FE_INTEGRATIONS}, got {integration!r}")
+    return Path(fe_dir) / (f"{prefix}_{int(round(rpm))}rpm" + ("_full" if integration == "full" else ""))
+
+
+def load_fe_record(fe_dir: str | Path, rpm: float, prefix: str = "spur", integration: str = "reduced") -> FERecord:
+    """Load ``<fe_dir>/<prefix>_<rpm>rpm[_full].npz/.json`` (:func:`record_stem`); MeasurementError naming a
+    missing/broken file."""
+    stem = record_stem(fe_dir, rpm, prefix, integration)
     npz, js = stem.with_suffix(".npz"), stem.with_suffix(".json")
+    flag = " --integration full" if integration == "full" else ""
     for p in (npz, js):
         if not p.is_file():
             raise MeasurementError(f"stored explicit FE result {p} is missing (run validation/run_explicit_{prefix}.py "
-                                   f"{int(round(rpm))}{' or use --fresh' if prefix == 'spur' else ''})")
+                                   f"{int(round(rpm))}{flag}{' or use --fresh' if prefix == 'spur' else ''})")
     meta = json.loads(js.read_text())
     with np.load(npz) as d:
         for key in ("t_s", "te_m", "theta_rad"):
@@ -150,8 +163,13 @@ def facet_kinematic_te(pair, excitation, torque: float, outline: float, body: fl
 def validate_speed(pair, rpm: float, fe: FERecord, excitation, excitation_label: str, inertia_out: float,
                    inertia_label: str, damping_ratio: float = 0.01,
                    kinematic: tuple[float, np.ndarray] | None = None,
-                   table_provenance: dict | None = None) -> SpeedComparison:
+                   table_provenance: dict | None = None, rom_model: str = "pair") -> SpeedComparison:
     """Run the pair ROM for the FE record's set-up and compare both on the FE's steady window.
+
+    ``rom_model``: ``"pair"`` (the 1-DOF RK4 model of :mod:`gearrom.validation.pair_rom`, with the FE's
+    torque ramp) or ``"exudyn"`` (the same system as an exudyn Drivetrain through
+    :func:`gearrom.rom.simulate.simulate_run`, :mod:`gearrom.validation.pair_exudyn`; starts at full
+    torque from the periodic state). The diagnostics below always use the pair ROM.
 
     ``kinematic``: optional (step, values) kinematic TE over the input angle (the FE outline facets).
     ``table_provenance``: where the mesh table came from (written to the ROM metadata as ``table``).
@@ -162,15 +180,26 @@ def validate_speed(pair, rpm: float, fe: FERecord, excitation, excitation_label:
     ramp = float(fe.meta.get("ramp_s", 0.3e-3))
     setup = PairRomSetup(rpm_in=rpm, torque_out=torque, torque_ramp_time=ramp, inertia_out=inertia_out,
                          damping_ratio=damping_ratio)
-    rom = simulate_pair_rom(pair, excitation, setup, t_end=float(fe.t[-1]), sample_period=1.0 / (f_mesh * 128),
-                            kinematic=kinematic)
+    if rom_model not in ROM_MODELS:
+        raise ConfigError(f"rom_model must be one of {ROM_MODELS}, got {rom_model!r}")
+    if rom_model == "exudyn":
+        from gearrom.validation.pair_exudyn import simulate_pair_exudyn
+
+        rom = simulate_pair_exudyn(pair, excitation, setup, t_end=float(fe.t[-1]),
+                                   sample_period=1.0 / (f_mesh * 128), kinematic=kinematic)
+        pair_rom = simulate_pair_rom(pair, excitation, setup, t_end=float(fe.t[-1]),
+                                     sample_period=1.0 / (f_mesh * 128), kinematic=kinematic)
+    else:
+        rom = pair_rom = simulate_pair_rom(pair, excitation, setup, t_end=float(fe.t[-1]),
+                                           sample_period=1.0 / (f_mesh * 128), kinematic=kinematic)
     t_from = float(fe.meta["t_steady_from_s"])
     wf = steady_window(fe.theta_in, fe.t, t_from, z1)
     wr = steady_window(rom.theta_in, rom.t, t_from, z1)
     m_fe = te_metrics(fe.theta_in[wf], fe.te[wf], z1)
     m_rom = te_metrics(rom.theta_in[wr], rom.te[wr], z1)
     metrics, passed, misses = compare_metrics(m_rom, m_fe)
-    meta = dict(rom.meta, excitation=excitation_label, inertia_source=inertia_label, mesh_periods=m_rom["mesh_periods"],
+    meta = dict(rom.meta, rom_model=rom_model, excitation=excitation_label, inertia_source=inertia_label,
+                mesh_periods=m_rom["mesh_periods"],
                 table=table_provenance or {"table": "ltca"},
                 geometry=("ideal involute + FE outline facets (per-pair rigid gaps, loaded pairs by stiffness share)" if kinematic is not None
                           else "ideal involute (mesh table only)"))
@@ -181,7 +210,7 @@ def validate_speed(pair, rpm: float, fe: FERecord, excitation, excitation_label:
         meta["diagnostic_ideal_involute"] = {"metrics": m_i, "would_pass": passed_i, "misses": misses_i}
     # diagnostic (not part of the verdict): the same ROM with its mesh stiffness scaled so that the mean
     # elastic deflection equals the FE's, i.e. how much of the difference is the stiffness level
-    e0_mean = rom.meta["ste_mean_m"] - torque / pair.rb[1] / rom.meta["k_mean_N_per_m"]
+    e0_mean = pair_rom.meta["ste_mean_m"] - torque / pair.rb[1] / pair_rom.meta["k_mean_N_per_m"]
     scale = (m_rom["te_mean_um"] * 1e-6 - e0_mean) / (m_fe["te_mean_um"] * 1e-6 - e0_mean)
     if scale > 0 and math.isfinite(scale):
         ex_s = scaled_excitation(replace_meta(excitation, rb2_m=pair.rb[1]), torque, scale)
@@ -221,32 +250,37 @@ class ValidationReport:
         n = len(self.speeds)
         fig, axes = plt.subplots(n, 2, figsize=(11, 3.2 * n), squeeze=False)
         for row, s in zip(axes, self.speeds):
+            rom_label = "exudyn ROM" if s.rom_meta.get("rom_model") == "exudyn" else "pair ROM"
             z1 = s.rom_meta.get("z1") or int(round(2 * math.pi * s.rom_meta["mesh_frequency_Hz"] / (s.rpm_in * 2 * math.pi / 60)))
             for lab, th, te, w, st in (("explicit FE", s.fe.theta_in, s.fe.te, s.fe_window, "k-"),
-                                       ("pair ROM", s.rom_theta_in, s.rom_te, s.rom_window, "C1--")):
+                                       (rom_label, s.rom_theta_in, s.rom_te, s.rom_window, "C1--")):
                 x = th[w] * z1 / (2 * math.pi)
                 row[0].plot(x, te[w] * 1e6, st, lw=1, label=lab)
                 d = te[w] - te[w].mean()
                 spec = 2 * np.abs(np.fft.rfft(d)) / d.size * 1e6
                 order = np.arange(spec.size) / (x[-1] - x[0] + (x[1] - x[0]))
-                row[1].plot(order, spec, st, lw=1, label=lab, marker="o" if lab.startswith("pair") else ".", ms=3)
+                row[1].plot(order, spec, st, lw=1, label=lab, marker="." if lab == "explicit FE" else "o", ms=3)
             row[0].set(xlabel="input angle [mesh periods]", ylabel="TE [um]",
                        title=f"{s.rpm_in:g} rpm ({'pass' if s.passed else 'FAIL'})")
             row[1].set(xlabel="mesh order", ylabel="DTE amplitude [um]", xlim=(0, 6))
             row[0].legend(fontsize=8)
             row[1].legend(fontsize=8)
-        fig.suptitle(f"{self.config}: pair ROM vs explicit FE")
+        fig.suptitle(f"{self.config}: ROM vs explicit FE")
         fig.tight_layout()
         return fig
 
 
 #: mesh tables of :func:`validate`: the quasi-static LTCA (default) or the LTCA at the explicit FE's static compliance
 TABLES = ("ltca", "explicit_scaled")
+#: the stored spur records :func:`validate` compares with by default
+DEFAULT_FE_INTEGRATION = "reduced"
+#: reduced models of :func:`validate`: the 1-DOF pair ROM (default) or the same system as an exudyn Drivetrain
+ROM_MODELS = ("pair", "exudyn")
 
 
 def validate(config: str, rpms, fe_dir: str | Path | None = None, fresh: bool = False,
              excitation_source: str = "fe", damping_ratio: float = 0.01, facets: bool = True,
-             table: str = "ltca") -> ValidationReport:
+             table: str = "ltca", rom_model: str = "pair", fe_integration: str | None = None) -> ValidationReport:
     """Compare the pair ROM with the explicit FE of ``config`` at each input speed in ``rpms``.
 
     Parameters
@@ -271,7 +305,20 @@ def validate(config: str, rpms, fe_dir: str | Path | None = None, fresh: bool = 
         ``spur_60rpm`` (Q4, 0.15 mm outline, penalty contact; scale 0.932, from static data only),
         :func:`gearrom.validation.explicit_table.explicit_scaled_excitation`; spur pairs, stored records,
         facets and the LTCA table only. Its provenance is written to each speed's ``rom.table``.
+    rom_model : str
+        ``"pair"`` (default; 1-DOF RK4, the FE's torque ramp) or ``"exudyn"`` (the project's drivetrain ROM
+        of the same system: :mod:`gearrom.validation.pair_exudyn`), see :func:`validate_speed`.
+    fe_integration : str, optional
+        Stored records of the explicit FE with ``"full"`` (fully integrated Q4, no hourglass energy:
+        ``spur_<rpm>rpm_full.*``) or ``"reduced"`` elements (one-point + hourglass control:
+        ``spur_<rpm>rpm.*``); default :data:`DEFAULT_FE_INTEGRATION` for spur pairs, ``"reduced"`` for
+        helical ones.
     """
+    fe_integration = fe_integration or DEFAULT_FE_INTEGRATION
+    if fe_integration not in FE_INTEGRATIONS:
+        raise ConfigError(f"fe_integration must be one of {FE_INTEGRATIONS}, got {fe_integration!r}")
+    if rom_model not in ROM_MODELS:
+        raise ConfigError(f"rom_model must be one of {ROM_MODELS}, got {rom_model!r}")
     if table not in TABLES:
         raise ConfigError(f"table must be one of {TABLES}, got {table!r}")
     from gearrom.config import load_config
@@ -294,7 +341,7 @@ def validate(config: str, rpms, fe_dir: str | Path | None = None, fresh: bool = 
         if not rpm > 0:
             raise ConfigError(f"--rpm values must be > 0, got {rpm}")
         records[rpm] = (fresh_fe_record(pair, rpm, cfg.operating.torque_out) if fresh
-                        else load_fe_record(fe_dir, rpm, prefix))
+                        else load_fe_record(fe_dir, rpm, prefix, "reduced" if helical else fe_integration))
     speeds = []
     cache: dict = {}
     for rpm, fe in records.items():
@@ -315,7 +362,7 @@ def validate(config: str, rpms, fe_dir: str | Path | None = None, fresh: bool = 
             kin = facet_kinematic_te(pair, ex, torque, key[0] * 1e-3, key[1] * 1e-3,
                                      rpm * 2 * math.pi / 60 * float(fe.t[-1]))
         s = validate_speed(pair, rpm, fe, ex, ex_label, j2, j_label, damping_ratio, kinematic=kin,
-                           table_provenance=provenance)
+                           table_provenance=provenance, rom_model=rom_model)
         s.rom_meta["z1"] = pair.z[0]
         speeds.append(s)
     return ValidationReport(cfg.name, speeds)

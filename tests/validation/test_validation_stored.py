@@ -71,6 +71,67 @@ def test_rom_within_issue_tolerances(report, rpm):
     assert s.passed, "; ".join(s.misses)
 
 
+# ---- the same references with fully integrated Q4 (validation/spur_<rpm>rpm_full.*: no hourglass modes)
+FULL_MISSES: dict[int, str] = {     # rpm -> measured miss (from the committed full-integration references)
+}
+
+
+def _have_full(rpm: int) -> bool:
+    return all((DEFAULT_FE_DIR / f"spur_{rpm}rpm_full{ext}").is_file() for ext in (".npz", ".json"))
+
+
+@pytest.fixture(scope="module")
+def report_full():
+    from gearrom.validation.report import validate
+
+    rpms = [r for r in RPMS if _have_full(r)]
+    if not rpms:
+        pytest.skip(f"no committed full-integration explicit FE reference in {DEFAULT_FE_DIR}")
+    return validate("thesis-spur", rpms, fe_integration="full")
+
+
+def test_full_references_have_no_hourglass_energy(report_full):
+    """Issue 5: hourglass energy below 1 % of the internal energy (Abaqus' check). The fully integrated
+    elements have none; the energy balance of the long undamped runs holds within 2 %."""
+    for s in report_full.speeds:
+        assert s.fe.meta["integration"] == "full"
+        assert s.fe.meta["hourglass_ratio"] == 0.0
+        assert s.fe.meta["energy_error"] < 0.02
+        assert s.fe.meta["mesh_periods_recorded"] >= 10
+
+
+@pytest.mark.parametrize("rpm", [pytest.param(r, marks=[pytest.mark.xfail(strict=True, reason=FULL_MISSES[r])]
+                                              if r in FULL_MISSES else []) for r in RPMS])
+def test_rom_within_issue_tolerances_full_integration_fe(report_full, rpm):
+    speeds = {int(s.rpm_in): s for s in report_full.speeds}
+    if rpm not in speeds:
+        pytest.skip(f"no committed full-integration reference at {rpm} rpm")
+    assert speeds[rpm].passed, "; ".join(speeds[rpm].misses)
+
+
+def test_exudyn_rom_agrees_with_pair_rom_on_the_references(report):
+    """The project's exudyn drivetrain ROM of the same system (gearrom.validation.pair_exudyn: modal
+    reduction + exudyn RK44, no torque ramp) against the 1-DOF pair ROM on the stored references:
+    the steady-state GMF amplitudes agree within 2 % and the mean TE within 0.5 % (a second method;
+    tests/validation/test_validation_pair_exudyn.py checks the two models closely on one case), so the
+    verdict is the same. The DTE RMS is not compared: it holds the start transient, which differs
+    (ramp vs periodic start)."""
+    from gearrom.validation.report import validate
+
+    rpms = [int(s.rpm_in) for s in report.speeds][-1:]
+    exu = {int(s.rpm_in): s for s in validate("thesis-spur", rpms, rom_model="exudyn").speeds}
+    for s in report.speeds:
+        if int(s.rpm_in) not in exu:
+            continue
+        e = exu[int(s.rpm_in)]
+        assert e.rom_meta["rom_model"] == "exudyn" and s.rom_meta["rom_model"] == "pair"
+        assert e.metrics["te_mean_um"]["rom"] == pytest.approx(s.metrics["te_mean_um"]["rom"], rel=0.005)
+        for m in (1, 2, 3):
+            key = f"gmf{m}_amplitude_um"
+            assert e.metrics[key]["rom"] == pytest.approx(s.metrics[key]["rom"], rel=0.02), key
+        assert e.passed == s.passed
+
+
 # ---- helical pair: 3D Hex8 explicit FE (validation/run_explicit_helical.py, coarser mesh, >= 5 periods)
 HELICAL_MISSES: dict[int, str] = {     # rpm -> measured miss (from the committed helical references)
 }

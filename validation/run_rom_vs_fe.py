@@ -1,0 +1,52 @@
+"""The ROM-vs-explicit-FE report files of the stored spur references (issue 5).
+
+Usage: ``python validation/run_rom_vs_fe.py [--integration {full,reduced}]``: writes
+validation/rom_vs_fe_spur[_full].json/.png (``gearrom validate thesis-spur --rpm 1250 2000`` on the
+stored records of that element integration, the speeds whose records exist), the same with the exudyn
+drivetrain ROM in ``..._exudyn.json``, and validation/quasistatic_spur_60rpm[_full].json (the slow run
+against the quasi-static STE).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+from pathlib import Path
+
+from gearrom.validation.quasistatic import quasistatic_check
+from gearrom.validation.report import record_stem, validate
+
+HERE = Path(__file__).resolve().parent
+log = logging.getLogger("run_rom_vs_fe")
+
+
+def main(integration: str = "full") -> list[Path]:
+    tag = "_full" if integration == "full" else ""
+    rpms = [r for r in (1250, 2000) if record_stem(HERE, r, integration=integration).with_suffix(".npz").is_file()]
+    written = []
+    if rpms:
+        for rom in ("pair", "exudyn"):
+            rep = validate("thesis-spur", rpms, fe_dir=HERE, rom_model=rom, fe_integration=integration)
+            stem = HERE / (f"rom_vs_fe_spur{tag}" + ("_exudyn" if rom == "exudyn" else ""))
+            written.append(rep.save(stem.with_suffix(".json")))
+            if rom == "pair":
+                fig = rep.plot()
+                fig.savefig(stem.with_suffix(".png"), dpi=110)
+                written.append(stem.with_suffix(".png"))
+            for s in rep.speeds:
+                log.info("%s ROM, %g rpm: %s", rom, s.rpm_in, "pass" if s.passed else "; ".join(s.misses))
+    if record_stem(HERE, 60, integration=integration).with_suffix(".npz").is_file():
+        q = quasistatic_check("thesis-spur", 60.0, fe_dir=HERE, integration=integration)
+        out = HERE / f"quasistatic_spur_60rpm{tag}.json"
+        out.write_text(json.dumps(q, indent=2) + "\n")
+        written.append(out)
+        log.info("60 rpm vs quasi-static STE: mean %+.2f %%, RMS %.2f %% (%s)", 100 * q["te_mean_um"]["rel_error"],
+                 100 * q["rms_difference_rel"], "pass" if q["passed"] else "; ".join(q["misses"]))
+    return written
+
+
+if __name__ == "__main__":
+    logging.basicConfig(level=logging.INFO, format="%(message)s")
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--integration", choices=("full", "reduced"), default="full")
+    main(ap.parse_args().integration)
