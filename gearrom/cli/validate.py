@@ -40,13 +40,15 @@ def add_args(parser) -> None:
     parser.add_argument("--rom", choices=("pair", "exudyn"), default="pair",
                         help="reduced model: 1-DOF pair ROM with the FE's torque ramp (default) or the same system as "
                              "an exudyn Drivetrain (the project's drivetrain ROM)")
-    parser.add_argument("--damping-ratio", type=float, default=0.01, help="ROM mesh damping ratio (default 0.01)")
+    parser.add_argument("--damping-ratio", type=float, default=None,
+                        help="ROM mesh damping ratio (default: the FE model's own: 0 for fully integrated, undamped "
+                             "records; 0.01 for one-point records, whose hourglass viscosity dissipates)")
 
 
 def run(args) -> int:
     from gearrom.validation.report import validate
 
-    if not args.damping_ratio >= 0:
+    if args.damping_ratio is not None and not args.damping_ratio >= 0:
         raise ConfigError(f"--damping-ratio must be >= 0, got {args.damping_ratio}")
     rep = validate(args.config, args.rpm, fe_dir=args.fe_dir, fresh=args.fresh, excitation_source=args.excitation,
                    damping_ratio=args.damping_ratio, facets=not args.no_facets, table=args.table,

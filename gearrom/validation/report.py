@@ -29,7 +29,8 @@ from gearrom.validation.pair_rom import (PairRomSetup, mesh_excitation, polar_in
 
 log = logging.getLogger(__name__)
 
-__all__ = ["FERecord", "ValidationReport", "load_fe_record", "record_stem", "output_inertia", "validate_speed", "validate"]
+__all__ = ["FERecord", "ValidationReport", "fe_damping_ratio", "load_fe_record", "record_stem", "output_inertia",
+           "validate_speed", "validate"]
 
 DEFAULT_FE_DIR = Path(__file__).resolve().parents[2] / "validation"
 
@@ -279,7 +280,7 @@ ROM_MODELS = ("pair", "exudyn")
 
 
 def validate(config: str, rpms, fe_dir: str | Path | None = None, fresh: bool = False,
-             excitation_source: str = "fe", damping_ratio: float = 0.01, facets: bool = True,
+             excitation_source: str = "fe", damping_ratio: float | None = None, facets: bool = True,
              table: str = "ltca", rom_model: str = "pair", fe_integration: str | None = None) -> ValidationReport:
     """Compare the pair ROM with the explicit FE of ``config`` at each input speed in ``rpms``.
 
@@ -295,8 +296,10 @@ def validate(config: str, rpms, fe_dir: str | Path | None = None, fresh: bool = 
         Run a coarse explicit FE now instead of loading the stored records (spur only).
     excitation_source : str
         Source of the LTCA table (:func:`gearrom.validation.pair_rom.mesh_excitation`).
-    damping_ratio : float
-        Mesh damping ratio of the ROM.
+    damping_ratio : float, optional
+        Mesh damping ratio of the ROM. Default: the FE model's own dissipation, i.e. 0 for records
+        without any (fully integrated elements, no mass damping, frictionless: :func:`fe_damping_ratio`)
+        and 0.01 for the one-point records (their hourglass viscosity dissipates).
     facets : bool
         Add the kinematic TE of the FE's faceted outlines to the ROM (same discretised gears).
     table : str
@@ -361,11 +364,20 @@ def validate(config: str, rpms, fe_dir: str | Path | None = None, fresh: bool = 
         if facets:
             kin = facet_kinematic_te(pair, ex, torque, key[0] * 1e-3, key[1] * 1e-3,
                                      rpm * 2 * math.pi / 60 * float(fe.t[-1]))
-        s = validate_speed(pair, rpm, fe, ex, ex_label, j2, j_label, damping_ratio, kinematic=kin,
+        zeta = fe_damping_ratio(fe) if damping_ratio is None else float(damping_ratio)
+        s = validate_speed(pair, rpm, fe, ex, ex_label, j2, j_label, zeta, kinematic=kin,
                            table_provenance=provenance, rom_model=rom_model)
         s.rom_meta["z1"] = pair.z[0]
         speeds.append(s)
     return ValidationReport(cfg.name, speeds)
+
+
+def fe_damping_ratio(fe: FERecord) -> float:
+    """The ROM mesh damping ratio that describes the FE record's system: 0 when the FE model dissipates
+    nothing (fully integrated elements, so no hourglass viscosity; no mass damping; mu = 0), else 0.01."""
+    undamped = (fe.meta.get("integration") == "full" and not fe.meta.get("mass_damping_per_s", 0.0)
+                and not fe.meta.get("mu", 0.0))
+    return 0.0 if undamped else 0.01
 
 
 def _explicit_scaled(pair, reference, fe_dir: Path, torque: float):

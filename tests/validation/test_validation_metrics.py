@@ -162,6 +162,19 @@ def test_missing_stored_result_names_the_file(tmp_path):
 
     with pytest.raises(MeasurementError, match="spur_1250rpm.npz"):
         load_fe_record(tmp_path, 1250)
+    with pytest.raises(MeasurementError, match=r"spur_2000rpm_full.npz .*--integration full"):
+        load_fe_record(tmp_path, 2000, integration="full")
+
+
+def test_rom_damping_follows_the_fe_model():
+    """The ROM describes the FE's system: no mesh damping when the FE model dissipates nothing (fully
+    integrated elements have no hourglass viscosity; no mass damping; frictionless), 1 % otherwise."""
+    from gearrom.validation.report import FERecord, fe_damping_ratio
+
+    z = np.zeros(3)
+    assert fe_damping_ratio(FERecord(z, z, z, {"integration": "full", "mu": 0.0})) == 0.0
+    assert fe_damping_ratio(FERecord(z, z, z, {"integration": "full", "mu": 0.1})) == 0.01
+    assert fe_damping_ratio(FERecord(z, z, z, {"hourglass_ratio": 0.05})) == 0.01
 
 
 def test_facet_kinematic_te_start_and_convergence(spur):
