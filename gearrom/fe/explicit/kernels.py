@@ -20,6 +20,46 @@ from numba import njit
 
 
 @njit(cache=True, fastmath=True, inline="always")
+def svk_2d(F00, F01, F10, F11, lam, mu):
+    """Plane-strain St Venant-Kirchhoff: first Piola-Kirchhoff stress P = F S (Pa) and the energy
+    density (J/m^3) of the 2x2 deformation gradient F (F_33 = 1)."""
+    E00 = 0.5 * (F00 * F00 + F10 * F10 - 1.0)
+    E11 = 0.5 * (F01 * F01 + F11 * F11 - 1.0)
+    E01 = 0.5 * (F00 * F01 + F10 * F11)
+    tr = E00 + E11
+    S00 = lam * tr + 2.0 * mu * E00
+    S11 = lam * tr + 2.0 * mu * E11
+    S01 = 2.0 * mu * E01
+    psi = 0.5 * lam * tr * tr + mu * (E00 * E00 + E11 * E11 + 2.0 * E01 * E01)
+    return (F00 * S00 + F01 * S01, F00 * S01 + F01 * S11,
+            F10 * S00 + F11 * S01, F10 * S01 + F11 * S11, psi)
+
+
+@njit(cache=True, fastmath=True, inline="always")
+def svk_3d(F00, F01, F02, F10, F11, F12, F20, F21, F22, lam, mu):
+    """St Venant-Kirchhoff: P = F S (Pa, row-major 3x3) and the energy density (J/m^3) of F."""
+    E00 = 0.5 * (F00 * F00 + F10 * F10 + F20 * F20 - 1.0)
+    E11 = 0.5 * (F01 * F01 + F11 * F11 + F21 * F21 - 1.0)
+    E22 = 0.5 * (F02 * F02 + F12 * F12 + F22 * F22 - 1.0)
+    E01 = 0.5 * (F00 * F01 + F10 * F11 + F20 * F21)
+    E02 = 0.5 * (F00 * F02 + F10 * F12 + F20 * F22)
+    E12 = 0.5 * (F01 * F02 + F11 * F12 + F21 * F22)
+    tr = E00 + E11 + E22
+    m2 = 2.0 * mu
+    S00 = lam * tr + m2 * E00
+    S11 = lam * tr + m2 * E11
+    S22 = lam * tr + m2 * E22
+    S01 = m2 * E01
+    S02 = m2 * E02
+    S12 = m2 * E12
+    psi = 0.5 * lam * tr * tr + mu * (E00 * E00 + E11 * E11 + E22 * E22 + 2.0 * (E01 * E01 + E02 * E02 + E12 * E12))
+    return (F00 * S00 + F01 * S01 + F02 * S02, F00 * S01 + F01 * S11 + F02 * S12, F00 * S02 + F01 * S12 + F02 * S22,
+            F10 * S00 + F11 * S01 + F12 * S02, F10 * S01 + F11 * S11 + F12 * S12, F10 * S02 + F11 * S12 + F12 * S22,
+            F20 * S00 + F21 * S01 + F22 * S02, F20 * S01 + F21 * S11 + F22 * S12, F20 * S02 + F21 * S12 + F22 * S22,
+            psi)
+
+
+@njit(cache=True, fastmath=True, inline="always")
 def q4_element(e, conn, u, v, B, V0, gamma, khg, chg, lam, mu, f):
     """Residual contribution of Q4 element ``e``; returns (W_int, W_hg, P_hgvisc) in J, J, W."""
     n0 = conn[e, 0]
@@ -38,19 +78,10 @@ def q4_element(e, conn, u, v, B, V0, gamma, khg, chg, lam, mu, f):
     F12 = ux0 * b0y + ux1 * b1y + ux2 * b2y + ux3 * b3y
     F21 = uy0 * b0x + uy1 * b1x + uy2 * b2x + uy3 * b3x
     F22 = 1.0 + uy0 * b0y + uy1 * b1y + uy2 * b2y + uy3 * b3y
-    E11 = 0.5 * (F11 * F11 + F21 * F21 - 1.0)
-    E22 = 0.5 * (F12 * F12 + F22 * F22 - 1.0)
-    E12 = 0.5 * (F11 * F12 + F21 * F22)
-    tr = E11 + E22
-    S11 = lam * tr + 2.0 * mu * E11
-    S22 = lam * tr + 2.0 * mu * E22
-    S12 = 2.0 * mu * E12
+    P11, P12, P21, P22, psi = svk_2d(F11, F12, F21, F22, lam, mu)
     vol = V0[e]
-    P11 = vol * (F11 * S11 + F12 * S12)
-    P12 = vol * (F11 * S12 + F12 * S22)
-    P21 = vol * (F21 * S11 + F22 * S12)
-    P22 = vol * (F21 * S12 + F22 * S22)
-    wint = vol * (0.5 * lam * tr * tr + mu * (E11 * E11 + E22 * E22 + 2.0 * E12 * E12))
+    P11 *= vol; P12 *= vol; P21 *= vol; P22 *= vol
+    wint = vol * psi
     g0 = gamma[e, 0, 0]; g1 = gamma[e, 1, 0]; g2 = gamma[e, 2, 0]; g3 = gamma[e, 3, 0]
     qx = g0 * ux0 + g1 * ux1 + g2 * ux2 + g3 * ux3
     qy = g0 * uy0 + g1 * uy1 + g2 * uy2 + g3 * uy3
@@ -97,32 +128,12 @@ def hex8_element(e, conn, u, v, B, V0, gamma, khg, chg, lam, mu, f):
         q00 += g0 * ux; q01 += g1 * ux; q02 += g2 * ux; q03 += g3 * ux
         q10 += g0 * uy; q11 += g1 * uy; q12 += g2 * uy; q13 += g3 * uy
         q20 += g0 * uz; q21 += g1 * uz; q22 += g2 * uz; q23 += g3 * uz
-    E00 = 0.5 * (F00 * F00 + F10 * F10 + F20 * F20 - 1.0)
-    E11 = 0.5 * (F01 * F01 + F11 * F11 + F21 * F21 - 1.0)
-    E22 = 0.5 * (F02 * F02 + F12 * F12 + F22 * F22 - 1.0)
-    E01 = 0.5 * (F00 * F01 + F10 * F11 + F20 * F21)
-    E02 = 0.5 * (F00 * F02 + F10 * F12 + F20 * F22)
-    E12 = 0.5 * (F01 * F02 + F11 * F12 + F21 * F22)
-    tr = E00 + E11 + E22
-    m2 = 2.0 * mu
-    S00 = lam * tr + m2 * E00
-    S11 = lam * tr + m2 * E11
-    S22 = lam * tr + m2 * E22
-    S01 = m2 * E01
-    S02 = m2 * E02
-    S12 = m2 * E12
+    P00, P01, P02, P10, P11, P12, P20, P21, P22, psi = svk_3d(F00, F01, F02, F10, F11, F12, F20, F21, F22, lam, mu)
     vol = V0[e]
-    P00 = vol * (F00 * S00 + F01 * S01 + F02 * S02)
-    P01 = vol * (F00 * S01 + F01 * S11 + F02 * S12)
-    P02 = vol * (F00 * S02 + F01 * S12 + F02 * S22)
-    P10 = vol * (F10 * S00 + F11 * S01 + F12 * S02)
-    P11 = vol * (F10 * S01 + F11 * S11 + F12 * S12)
-    P12 = vol * (F10 * S02 + F11 * S12 + F12 * S22)
-    P20 = vol * (F20 * S00 + F21 * S01 + F22 * S02)
-    P21 = vol * (F20 * S01 + F21 * S11 + F22 * S12)
-    P22 = vol * (F20 * S02 + F21 * S12 + F22 * S22)
-    wint = vol * (0.5 * lam * tr * tr
-                  + mu * (E00 * E00 + E11 * E11 + E22 * E22 + 2.0 * (E01 * E01 + E02 * E02 + E12 * E12)))
+    P00 *= vol; P01 *= vol; P02 *= vol
+    P10 *= vol; P11 *= vol; P12 *= vol
+    P20 *= vol; P21 *= vol; P22 *= vol
+    wint = vol * psi
     k = khg[e]
     c = chg[e]
     whg = 0.5 * k * (q00 * q00 + q01 * q01 + q02 * q02 + q03 * q03 + q10 * q10 + q11 * q11
@@ -183,18 +194,9 @@ def q4_full_element(e, conn, u, Bg, Wg, lam, mu, f):
         F01 = ux0 * b0y + ux1 * b1y + ux2 * b2y + ux3 * b3y
         F10 = uy0 * b0x + uy1 * b1x + uy2 * b2x + uy3 * b3x
         F11 = 1.0 + uy0 * b0y + uy1 * b1y + uy2 * b2y + uy3 * b3y
-        E00 = 0.5 * (F00 * F00 + F10 * F10 - 1.0)
-        E11 = 0.5 * (F01 * F01 + F11 * F11 - 1.0)
-        E01 = 0.5 * (F00 * F01 + F10 * F11)
-        tr = E00 + E11
-        S00 = lam * tr + 2.0 * mu * E00
-        S11 = lam * tr + 2.0 * mu * E11
-        S01 = 2.0 * mu * E01
-        P00 = w * (F00 * S00 + F01 * S01)
-        P01 = w * (F00 * S01 + F01 * S11)
-        P10 = w * (F10 * S00 + F11 * S01)
-        P11 = w * (F10 * S01 + F11 * S11)
-        wint += w * (0.5 * lam * tr * tr + mu * (E00 * E00 + E11 * E11 + 2.0 * E01 * E01))
+        P00, P01, P10, P11, psi = svk_2d(F00, F01, F10, F11, lam, mu)
+        P00 *= w; P01 *= w; P10 *= w; P11 *= w
+        wint += w * psi
         fx0 += P00 * b0x + P01 * b0y; fy0 += P10 * b0x + P11 * b0y
         fx1 += P00 * b1x + P01 * b1y; fy1 += P10 * b1x + P11 * b1y
         fx2 += P00 * b2x + P01 * b2y; fy2 += P10 * b2x + P11 * b2y
@@ -223,31 +225,12 @@ def hex8_full_element(e, conn, u, Bg, Wg, lam, mu, f):
             F00 += ux * bx; F01 += ux * by; F02 += ux * bz
             F10 += uy * bx; F11 += uy * by; F12 += uy * bz
             F20 += uz * bx; F21 += uz * by; F22 += uz * bz
-        E00 = 0.5 * (F00 * F00 + F10 * F10 + F20 * F20 - 1.0)
-        E11 = 0.5 * (F01 * F01 + F11 * F11 + F21 * F21 - 1.0)
-        E22 = 0.5 * (F02 * F02 + F12 * F12 + F22 * F22 - 1.0)
-        E01 = 0.5 * (F00 * F01 + F10 * F11 + F20 * F21)
-        E02 = 0.5 * (F00 * F02 + F10 * F12 + F20 * F22)
-        E12 = 0.5 * (F01 * F02 + F11 * F12 + F21 * F22)
-        tr = E00 + E11 + E22
-        m2 = 2.0 * mu
-        S00 = lam * tr + m2 * E00
-        S11 = lam * tr + m2 * E11
-        S22 = lam * tr + m2 * E22
-        S01 = m2 * E01
-        S02 = m2 * E02
-        S12 = m2 * E12
-        P00 = w * (F00 * S00 + F01 * S01 + F02 * S02)
-        P01 = w * (F00 * S01 + F01 * S11 + F02 * S12)
-        P02 = w * (F00 * S02 + F01 * S12 + F02 * S22)
-        P10 = w * (F10 * S00 + F11 * S01 + F12 * S02)
-        P11 = w * (F10 * S01 + F11 * S11 + F12 * S12)
-        P12 = w * (F10 * S02 + F11 * S12 + F12 * S22)
-        P20 = w * (F20 * S00 + F21 * S01 + F22 * S02)
-        P21 = w * (F20 * S01 + F21 * S11 + F22 * S12)
-        P22 = w * (F20 * S02 + F21 * S12 + F22 * S22)
-        wint += w * (0.5 * lam * tr * tr + mu * (E00 * E00 + E11 * E11 + E22 * E22
-                                                  + 2.0 * (E01 * E01 + E02 * E02 + E12 * E12)))
+        P00, P01, P02, P10, P11, P12, P20, P21, P22, psi = svk_3d(F00, F01, F02, F10, F11, F12, F20, F21, F22,
+                                                                  lam, mu)
+        P00 *= w; P01 *= w; P02 *= w
+        P10 *= w; P11 *= w; P12 *= w
+        P20 *= w; P21 *= w; P22 *= w
+        wint += w * psi
         for a in range(8):
             n = conn[e, a]
             bx = Bg[e, g, a, 0]; by = Bg[e, g, a, 1]; bz = Bg[e, g, a, 2]
