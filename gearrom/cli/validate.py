@@ -36,7 +36,7 @@ def add_args(parser) -> None:
     parser.add_argument("--fe-integration", choices=("reduced", "full"), default=None,
                         help="stored explicit FE records: fully integrated Q4 without hourglass energy "
                              "(spur_<rpm>rpm_full.*) or one-point Q4 with hourglass control (spur_<rpm>rpm.*); "
-                             "default: the library's DEFAULT_FE_INTEGRATION")
+                             "default: per speed the fully integrated record where it is stored")
     parser.add_argument("--rom", choices=("pair", "exudyn"), default="pair",
                         help="reduced model: 1-DOF pair ROM with the FE's torque ramp (default) or the same system as "
                              "an exudyn Drivetrain (the project's drivetrain ROM)")

@@ -83,6 +83,7 @@ def load_fe_record(fe_dir: str | Path, rpm: float, prefix: str = "spur", integra
     for key in ("t_steady_from_s", "torque_out_Nm"):
         if key not in meta:
             raise MeasurementError(f"{js}: key {key!r} missing")
+    meta.setdefault("integration", integration)
     return FERecord(t=t, theta_in=th[:, 0] - th[0, 0], te=te, meta=meta, source="stored")
 
 
@@ -136,8 +137,9 @@ class SpeedComparison:
     def to_dict(self) -> dict:
         return {"rpm_in": self.rpm_in, "fe_source": self.fe.source, "metrics": self.metrics, "passed": self.passed,
                 "misses": self.misses, "tolerances": TOLERANCES,
-                "fe": {k: self.fe.meta.get(k) for k in ("outline_size_mm", "body_size_mm", "dt_s", "n_elements",
-                                                        "wall_s", "t_end_s", "hourglass_ratio", "mu")},
+                "fe": {k: self.fe.meta.get(k) for k in ("integration", "outline_size_mm", "body_size_mm", "dt_s",
+                                                        "n_elements", "wall_s", "t_end_s", "hourglass_ratio",
+                                                        "energy_error", "mu")},
                 "rom": {k: v for k, v in self.rom_meta.items() if k != "excitation_definition"}}
 
 
@@ -273,8 +275,6 @@ class ValidationReport:
 
 #: mesh tables of :func:`validate`: the quasi-static LTCA (default) or the LTCA at the explicit FE's static compliance
 TABLES = ("ltca", "explicit_scaled")
-#: the stored spur records :func:`validate` compares with by default
-DEFAULT_FE_INTEGRATION = "reduced"
 #: reduced models of :func:`validate`: the 1-DOF pair ROM (default) or the same system as an exudyn Drivetrain
 ROM_MODELS = ("pair", "exudyn")
 
@@ -314,11 +314,11 @@ def validate(config: str, rpms, fe_dir: str | Path | None = None, fresh: bool = 
     fe_integration : str, optional
         Stored records of the explicit FE with ``"full"`` (fully integrated Q4, no hourglass energy:
         ``spur_<rpm>rpm_full.*``) or ``"reduced"`` elements (one-point + hourglass control:
-        ``spur_<rpm>rpm.*``); default :data:`DEFAULT_FE_INTEGRATION` for spur pairs, ``"reduced"`` for
-        helical ones.
+        ``spur_<rpm>rpm.*``). Default for spur pairs: per speed the fully integrated record where it is
+        stored, else the one-point one (each speed's ``fe.integration`` in the report says which);
+        helical records are one-point.
     """
-    fe_integration = fe_integration or DEFAULT_FE_INTEGRATION
-    if fe_integration not in FE_INTEGRATIONS:
+    if fe_integration is not None and fe_integration not in FE_INTEGRATIONS:
         raise ConfigError(f"fe_integration must be one of {FE_INTEGRATIONS}, got {fe_integration!r}")
     if rom_model not in ROM_MODELS:
         raise ConfigError(f"rom_model must be one of {ROM_MODELS}, got {rom_model!r}")
@@ -338,13 +338,19 @@ def validate(config: str, rpms, fe_dir: str | Path | None = None, fresh: bool = 
         raise ConfigError("table='explicit_scaled' comes from the stored 2D spur explicit FE's slow run: it needs a spur "
                           "pair, stored records (not --fresh: other mesh), the outline facets (the scale is of the "
                           "elastic part) and the LTCA table (excitation 'fe')")
+    if table == "explicit_scaled":
+        if fe_integration == "full":
+            raise ConfigError("table='explicit_scaled' is the static compliance of the one-point (reduced) explicit "
+                              "FE's slow run: compare it with the one-point records (fe_integration='reduced')")
+        fe_integration = "reduced"
     fe_dir = Path(fe_dir) if fe_dir is not None else DEFAULT_FE_DIR
     records = {}
     for rpm in rpms:
         if not rpm > 0:
             raise ConfigError(f"--rpm values must be > 0, got {rpm}")
         records[rpm] = (fresh_fe_record(pair, rpm, cfg.operating.torque_out) if fresh
-                        else load_fe_record(fe_dir, rpm, prefix, "reduced" if helical else fe_integration))
+                        else load_fe_record(fe_dir, rpm, prefix, "reduced" if helical
+                                            else fe_integration or _preferred_integration(fe_dir, rpm)))
     speeds = []
     cache: dict = {}
     for rpm, fe in records.items():
@@ -370,6 +376,11 @@ def validate(config: str, rpms, fe_dir: str | Path | None = None, fresh: bool = 
         s.rom_meta["z1"] = pair.z[0]
         speeds.append(s)
     return ValidationReport(cfg.name, speeds)
+
+
+def _preferred_integration(fe_dir: Path, rpm: float) -> str:
+    """"full" where the fully integrated spur record of ``rpm`` is stored, else "reduced"."""
+    return "full" if record_stem(fe_dir, rpm, "spur", "full").with_suffix(".npz").is_file() else "reduced"
 
 
 def fe_damping_ratio(fe: FERecord) -> float:

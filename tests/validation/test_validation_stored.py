@@ -37,7 +37,7 @@ def report():
     rpms = [r for r in RPMS if _have(r)]
     if not rpms:
         pytest.skip(f"no committed explicit FE reference in {DEFAULT_FE_DIR}")
-    return validate("thesis-spur", rpms)
+    return validate("thesis-spur", rpms, fe_integration="reduced")
 
 
 def test_report_structure_and_finite(report, tmp_path):
@@ -119,7 +119,8 @@ def test_exudyn_rom_agrees_with_pair_rom_on_the_references(report):
     from gearrom.validation.report import validate
 
     rpms = [int(s.rpm_in) for s in report.speeds][-1:]
-    exu = {int(s.rpm_in): s for s in validate("thesis-spur", rpms, rom_model="exudyn").speeds}
+    exu = {int(s.rpm_in): s for s in validate("thesis-spur", rpms, rom_model="exudyn",
+                                                          fe_integration="reduced").speeds}
     for s in report.speeds:
         if int(s.rpm_in) not in exu:
             continue
