@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from gearrom.validation.report import DEFAULT_FE_DIR
+from speed_verdicts import assert_speed_passes, speed_params
 
 RPMS = (1250, 2000)
 
@@ -187,14 +188,9 @@ def test_scaled_report_records_its_table(scaled_report, tmp_path):
         assert abs(s["metrics"]["te_mean_um"]["rel_error"]) < 0.02      # static compliance level: mean TE matches
 
 
-@pytest.mark.parametrize("rpm", [pytest.param(r, marks=[pytest.mark.xfail(strict=True, reason=SCALED_MISSES[r])]
-                                              if r in SCALED_MISSES else []) for r in RPMS])
+@pytest.mark.parametrize("rpm", speed_params(RPMS, SCALED_MISSES))
 def test_rom_on_explicit_scaled_table_within_issue_tolerances(scaled_report, rpm):
-    speeds = {int(s.rpm_in): s for s in scaled_report.speeds}
-    if rpm not in speeds:
-        pytest.skip(f"no committed reference at {rpm} rpm")
-    s = speeds[rpm]
-    assert s.passed, "; ".join(s.misses)
+    assert_speed_passes(scaled_report, rpm)
 
 
 def test_stored_analysis_static_vs_dynamic():

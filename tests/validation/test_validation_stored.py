@@ -15,6 +15,7 @@ import math
 import pytest
 
 from gearrom.validation.report import DEFAULT_FE_DIR
+from speed_verdicts import assert_speed_passes, speed_params
 
 RPMS = (1250, 2000)
 MISSES: dict[int, str] = {     # rpm -> measured miss (from the committed references)
@@ -54,21 +55,9 @@ def test_report_structure_and_finite(report, tmp_path):
         assert s["passed"] == (not s["misses"])
 
 
-def _params():
-    out = []
-    for rpm in RPMS:
-        marks = [pytest.mark.xfail(strict=True, reason=MISSES[rpm])] if rpm in MISSES else []
-        out.append(pytest.param(rpm, marks=marks))
-    return out
-
-
-@pytest.mark.parametrize("rpm", _params())
+@pytest.mark.parametrize("rpm", speed_params(RPMS, MISSES))
 def test_rom_within_issue_tolerances(report, rpm):
-    speeds = {int(s.rpm_in): s for s in report.speeds}
-    if rpm not in speeds:
-        pytest.skip(f"no committed reference at {rpm} rpm")
-    s = speeds[rpm]
-    assert s.passed, "; ".join(s.misses)
+    assert_speed_passes(report, rpm)
 
 
 # ---- the same references with fully integrated Q4 (validation/spur_<rpm>rpm_full.*: no hourglass modes)
@@ -105,13 +94,9 @@ def test_full_references_have_no_hourglass_energy(report_full):
         assert s.fe.meta["mesh_periods_recorded"] >= 10
 
 
-@pytest.mark.parametrize("rpm", [pytest.param(r, marks=[pytest.mark.xfail(strict=True, reason=FULL_MISSES[r])]
-                                              if r in FULL_MISSES else []) for r in RPMS])
+@pytest.mark.parametrize("rpm", speed_params(RPMS, FULL_MISSES))
 def test_rom_within_issue_tolerances_full_integration_fe(report_full, rpm):
-    speeds = {int(s.rpm_in): s for s in report_full.speeds}
-    if rpm not in speeds:
-        pytest.skip(f"no committed full-integration reference at {rpm} rpm")
-    assert speeds[rpm].passed, "; ".join(speeds[rpm].misses)
+    assert_speed_passes(report_full, rpm, "full-integration reference")
 
 
 def test_exudyn_rom_agrees_with_pair_rom_on_the_references(report):
@@ -167,18 +152,9 @@ def test_helical_report_structure(helical_report, tmp_path):
         assert s["passed"] == (not s["misses"])
 
 
-def _helical_params():
-    return [pytest.param(rpm, marks=[pytest.mark.xfail(strict=True, reason=HELICAL_MISSES[rpm])]
-                         if rpm in HELICAL_MISSES else []) for rpm in RPMS]
-
-
-@pytest.mark.parametrize("rpm", _helical_params())
+@pytest.mark.parametrize("rpm", speed_params(RPMS, HELICAL_MISSES))
 def test_helical_rom_within_issue_tolerances(helical_report, rpm):
-    speeds = {int(s.rpm_in): s for s in helical_report.speeds}
-    if rpm not in speeds:
-        pytest.skip(f"no committed helical reference at {rpm} rpm")
-    s = speeds[rpm]
-    assert s.passed, "; ".join(s.misses)
+    assert_speed_passes(helical_report, rpm, "helical reference")
 
 
 def test_cli_missing_helical_reference_names_file(tmp_path, capsys):
