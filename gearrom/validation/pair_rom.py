@@ -34,7 +34,7 @@ from gearrom.errors import ModelError
 
 log = logging.getLogger(__name__)
 
-__all__ = ["PairRomSetup", "PairRomResult", "fe_start_mesh_phase", "polar_inertia", "mesh_excitation",
+__all__ = ["PairRomSetup", "PairRomResult", "fe_start_mesh_phase", "table_samples", "polar_inertia", "mesh_excitation",
            "scaled_excitation", "simulate_pair_rom"]
 
 
@@ -218,6 +218,13 @@ def _integrate(n_steps, dt, every, om, phi0, period, kt, e0t, c, meq, T, tr, rb2
     return ts[:j], xs[:j], fs[:j]
 
 
+def table_samples(pair, excitation, torque: float, n_table: int = 1024) -> tuple[np.ndarray, np.ndarray]:
+    """Mesh stiffness k [N/m] and static TE e [m] of ``excitation`` at ``torque`` [N m] on ``n_table``
+    equal steps of one mesh period (the lookup grid of :func:`simulate_pair_rom`)."""
+    th = np.arange(n_table) * (2 * math.pi / pair.z[0]) / n_table
+    return (np.asarray(excitation.stiffness(th, torque), float), np.asarray(excitation.ste(th, torque), float))
+
+
 def simulate_pair_rom(pair, excitation, setup: PairRomSetup, t_end: float, sample_period: float,
                       phase0: float | None = None, n_table: int = 1024,
                       kinematic: tuple[float, np.ndarray] | None = None) -> PairRomResult:
@@ -246,9 +253,7 @@ def simulate_pair_rom(pair, excitation, setup: PairRomSetup, t_end: float, sampl
     period = 2 * math.pi / z1
     om = setup.rpm_in * 2 * math.pi / 60
     phi0 = fe_start_mesh_phase(pair) if phase0 is None else float(phase0)
-    th = np.arange(n_table) * period / n_table
-    k = np.asarray(excitation.stiffness(th, setup.torque_out), float)
-    e = np.asarray(excitation.ste(th, setup.torque_out), float)
+    k, e = table_samples(pair, excitation, setup.torque_out, n_table)
     f_nom = setup.torque_out / rb2
     e0 = e - f_nom / k
     meq = setup.inertia_out / rb2**2

@@ -25,7 +25,7 @@ import numpy as np
 from gearrom.errors import ConfigError, MeasurementError
 from gearrom.validation.compare import TOLERANCES, compare_metrics, steady_window, te_metrics
 from gearrom.validation.pair_rom import (PairRomSetup, mesh_excitation, polar_inertia, scaled_excitation,
-                                         simulate_pair_rom)
+                                         simulate_pair_rom, table_samples)
 
 log = logging.getLogger(__name__)
 
@@ -185,16 +185,13 @@ def validate_speed(pair, rpm: float, fe: FERecord, excitation, excitation_label:
                          damping_ratio=damping_ratio)
     if rom_model not in ROM_MODELS:
         raise ConfigError(f"rom_model must be one of {ROM_MODELS}, got {rom_model!r}")
+    span = {"t_end": float(fe.t[-1]), "sample_period": 1.0 / (f_mesh * 128)}
     if rom_model == "exudyn":
         from gearrom.validation.pair_exudyn import simulate_pair_exudyn
 
-        rom = simulate_pair_exudyn(pair, excitation, setup, t_end=float(fe.t[-1]),
-                                   sample_period=1.0 / (f_mesh * 128), kinematic=kinematic)
-        pair_rom = simulate_pair_rom(pair, excitation, setup, t_end=float(fe.t[-1]),
-                                     sample_period=1.0 / (f_mesh * 128), kinematic=kinematic)
+        rom = simulate_pair_exudyn(pair, excitation, setup, kinematic=kinematic, **span)
     else:
-        rom = pair_rom = simulate_pair_rom(pair, excitation, setup, t_end=float(fe.t[-1]),
-                                           sample_period=1.0 / (f_mesh * 128), kinematic=kinematic)
+        rom = simulate_pair_rom(pair, excitation, setup, kinematic=kinematic, **span)
     t_from = float(fe.meta["t_steady_from_s"])
     wf = steady_window(fe.theta_in, fe.t, t_from, z1)
     wr = steady_window(rom.theta_in, rom.t, t_from, z1)
@@ -207,18 +204,18 @@ def validate_speed(pair, rpm: float, fe: FERecord, excitation, excitation_label:
                 geometry=("ideal involute + FE outline facets (per-pair rigid gaps, loaded pairs by stiffness share)" if kinematic is not None
                           else "ideal involute (mesh table only)"))
     if kinematic is not None:       # diagnostic: the ROM of the ideal involute (mesh table only)
-        rom_i = simulate_pair_rom(pair, excitation, setup, t_end=float(fe.t[-1]), sample_period=1.0 / (f_mesh * 128))
+        rom_i = simulate_pair_rom(pair, excitation, setup, **span)
         wi = steady_window(rom_i.theta_in, rom_i.t, t_from, z1)
         m_i, passed_i, misses_i = compare_metrics(te_metrics(rom_i.theta_in[wi], rom_i.te[wi], z1), m_fe)
         meta["diagnostic_ideal_involute"] = {"metrics": m_i, "would_pass": passed_i, "misses": misses_i}
     # diagnostic (not part of the verdict): the same ROM with its mesh stiffness scaled so that the mean
     # elastic deflection equals the FE's, i.e. how much of the difference is the stiffness level
-    e0_mean = pair_rom.meta["ste_mean_m"] - torque / pair.rb[1] / pair_rom.meta["k_mean_N_per_m"]
+    k_tab, e_tab = table_samples(pair, excitation, torque)
+    e0_mean = float(e_tab.mean()) - torque / pair.rb[1] / float(k_tab.mean())
     scale = (m_rom["te_mean_um"] * 1e-6 - e0_mean) / (m_fe["te_mean_um"] * 1e-6 - e0_mean)
     if scale > 0 and math.isfinite(scale):
         ex_s = scaled_excitation(replace_meta(excitation, rb2_m=pair.rb[1]), torque, scale)
-        rom_s = simulate_pair_rom(pair, ex_s, setup, t_end=float(fe.t[-1]), sample_period=1.0 / (f_mesh * 128),
-                                  kinematic=kinematic)
+        rom_s = simulate_pair_rom(pair, ex_s, setup, kinematic=kinematic, **span)
         ws = steady_window(rom_s.theta_in, rom_s.t, t_from, z1)
         m_s, passed_s, misses_s = compare_metrics(te_metrics(rom_s.theta_in[ws], rom_s.te[ws], z1), m_fe)
         meta["diagnostic_stiffness_matched"] = {"stiffness_scale": scale, "metrics": m_s, "would_pass": passed_s,
