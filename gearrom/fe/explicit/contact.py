@@ -27,6 +27,9 @@ from numba import njit
 #: a projection may fall this fraction of the segment length beyond its ends (so that a slave node
 #: sitting exactly on a master corner node does not flicker in and out of contact)
 SEG_TOL = 0.02
+#: 3D: a node may lie this fraction of the facet radius beyond an edge of the master surface (see
+#: :func:`contact_forces_3d`) and still take the facet plane as its contact surface
+OPEN_TOL = 0.05
 
 
 @njit(cache=True)
@@ -220,12 +223,24 @@ def _facet_point(x, segs, s, xi, eta):
     return p0, p1, p2, a0, a1, a2, c0, c1, c2
 
 
+@njit(cache=True, fastmath=True, inline="always")
+def _edge_closest(x, n, pa, pb):
+    """Closest point of the straight segment from node ``pa`` to node ``pb`` to node ``n``: (t, distance^2)."""
+    t0 = x[pb, 0] - x[pa, 0]; t1 = x[pb, 1] - x[pa, 1]; t2 = x[pb, 2] - x[pa, 2]
+    r0 = x[n, 0] - x[pa, 0]; r1 = x[n, 1] - x[pa, 1]; r2 = x[n, 2] - x[pa, 2]
+    L2 = t0 * t0 + t1 * t1 + t2 * t2
+    t = min(max((r0 * t0 + r1 * t1 + r2 * t2) / L2, 0.0), 1.0)
+    d0 = r0 - t * t0; d1 = r1 - t * t1; d2 = r2 - t * t2
+    return t, d0 * d0 + d1 * d1 + d2 * d2
+
+
 @njit(cache=True, fastmath=True)
 def facet_closest(x, segs, s, n):
-    """Closest point of bilinear facet ``s`` to node ``n``: (xi, eta, distance, inside_zone).
+    """Closest point of bilinear facet ``s`` to node ``n``: (xi, eta, distance, inside_zone, edge).
 
-    Newton on the unconstrained projection; a coordinate outside [-1, 1] is clamped and the other
-    re-projected along that edge (``inside_zone`` False: the closest point is on the facet border).
+    Newton on the unconstrained projection; if it falls outside [-1, 1]^2 the closest point is on the
+    border, whose four edges are straight segments (bilinear facet): the nearest of the four exact edge
+    projections is taken (``inside_zone`` False, ``edge`` 0..3 = eta=-1, xi=+1, eta=+1, xi=-1; -1 inside).
     """
     xi = 0.0
     eta = 0.0
@@ -245,29 +260,97 @@ def facet_closest(x, segs, s, n):
         if abs(dxi) + abs(deta) < 1e-10:
             break
     inside = abs(xi) <= 1.0 and abs(eta) <= 1.0
+    edge = -1
     if not inside:
-        # clamp, then re-project the free coordinate along the border (twice: a corner may follow)
-        for rep in range(2):
-            xi = min(max(xi, -1.0), 1.0)
-            eta = min(max(eta, -1.0), 1.0)
-            p0, p1, p2, a0, a1, a2, c0, c1, c2 = _facet_point(x, segs, s, xi, eta)
-            r0 = x[n, 0] - p0; r1 = x[n, 1] - p1; r2 = x[n, 2] - p2
-            if abs(xi) == 1.0 and abs(eta) < 1.0:
-                eta += (r0 * c0 + r1 * c1 + r2 * c2) / (c0 * c0 + c1 * c1 + c2 * c2)
-            elif abs(eta) == 1.0 and abs(xi) < 1.0:
-                xi += (r0 * a0 + r1 * a1 + r2 * a2) / (a0 * a0 + a1 * a1 + a2 * a2)
-        xi = min(max(xi, -1.0), 1.0)
-        eta = min(max(eta, -1.0), 1.0)
+        best = 1e300
+        for e in range(4):
+            t, d2 = _edge_closest(x, n, segs[s, e], segs[s, (e + 1) % 4])
+            if d2 < best:
+                best = d2
+                edge = e
+                # edge e runs from local node e to node e+1 (counter-clockwise in (xi, eta))
+                if e == 0:
+                    xi = -1.0 + 2.0 * t; eta = -1.0
+                elif e == 1:
+                    xi = 1.0; eta = -1.0 + 2.0 * t
+                elif e == 2:
+                    xi = 1.0 - 2.0 * t; eta = 1.0
+                else:
+                    xi = -1.0; eta = 1.0 - 2.0 * t
     p0, p1, p2, a0, a1, a2, c0, c1, c2 = _facet_point(x, segs, s, xi, eta)
     r0 = x[n, 0] - p0; r1 = x[n, 1] - p1; r2 = x[n, 2] - p2
-    return xi, eta, math.sqrt(r0 * r0 + r1 * r1 + r2 * r2), inside
+    return xi, eta, math.sqrt(r0 * r0 + r1 * r1 + r2 * r2), inside, edge
 
 
 @njit(cache=True, fastmath=True)
-def contact_forces_3d(x, v, slaves, s_pair, segs, g_k, cand, ncand, p_mu, p_vreg, p_depth, f, gap):
+def _signed_gap_3d(x, segs, g_rad, seg_open, cand, ncand, i, n):
+    """Nearest master feature of slave ``i`` (node ``n``) among its candidates.
+
+    Returns (facet or -1, xi, eta, signed gap (negative = penetration), contact normal): the distance to the
+    closest feature, negative on the body side of that facet; beyond an open surface edge the normal
+    distance to the facet plane while the tangential overshoot is at most ``OPEN_TOL`` facet radii, and
+    facet -1 farther out (see :func:`contact_forces_3d`).
+    """
+    best = -1
+    bd = 0.0
+    bin_ = False
+    bxi = 0.0; beta = 0.0
+    bedge = -1
+    for m in range(ncand[i]):
+        s = cand[i, m]
+        xi, eta, d, inside, edge = facet_closest(x, segs, s, n)
+        if best < 0 or d < bd * (1 - 1e-12) or (d <= bd * (1 + 1e-12) and inside and not bin_):
+            best = s; bd = d; bin_ = inside; bxi = xi; beta = eta; bedge = edge
+    if best < 0:
+        return -1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    p0, p1, p2, a0, a1, a2, c0, c1, c2 = _facet_point(x, segs, best, bxi, beta)
+    n0 = a1 * c2 - a2 * c1; n1 = a2 * c0 - a0 * c2; n2 = a0 * c1 - a1 * c0
+    nl = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+    n0 /= nl; n1 /= nl; n2 /= nl
+    r0 = x[n, 0] - p0; r1 = x[n, 1] - p1; r2 = x[n, 2] - p2
+    rn = r0 * n0 + r1 * n1 + r2 * n2
+    open_edge = False
+    if not bin_:
+        mask = seg_open[best]
+        if abs(bxi) == 1.0 and abs(beta) == 1.0:      # a corner: the two edges that meet there
+            q = (0 if bxi < 0 else 1) if beta < 0 else (2 if bxi > 0 else 3)
+            open_edge = ((mask >> q) & 1) == 1 or ((mask >> ((q + 3) % 4)) & 1) == 1
+        else:
+            open_edge = ((mask >> bedge) & 1) == 1
+    if open_edge:
+        tol = OPEN_TOL * g_rad[best]
+        if bd * bd - rn * rn > tol * tol:
+            return -1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0     # beyond the edge of the master surface
+        return best, bxi, beta, rn, n0, n1, n2
+    if rn < 0.0 and not bin_ and bd > 1e-9 * math.sqrt(nl):
+        return best, bxi, beta, -bd, -r0 / bd, -r1 / bd, -r2 / bd   # border zone: towards the closest point
+    return best, bxi, beta, (-bd if rn < 0.0 else bd), n0, n1, n2
+
+
+@njit(cache=True)
+def signed_gaps_3d(x, slaves, segs, g_rad, cand, ncand, seg_open):
+    """Signed gap of every slave node (m; NaN without a master feature in reach), as the 3D contact sees it."""
+    out = np.full(slaves.shape[0], np.nan)
+    for i in range(slaves.shape[0]):
+        best, bxi, beta, g, a, b, c = _signed_gap_3d(x, segs, g_rad, seg_open, cand, ncand, i, slaves[i])
+        if best >= 0:
+            out[i] = g
+    return out
+
+
+@njit(cache=True, fastmath=True)
+def contact_forces_3d(x, v, slaves, s_pair, segs, g_k, g_rad, cand, ncand, p_mu, p_vreg, p_depth, f, gap, seg_open):
     """Add 3D node-to-bilinear-facet penalty/friction forces to ``f``; see :func:`contact_forces_2d`.
 
-    The closest feature of the master surface (clamped projection) gives the signed distance, as in 2D.
+    The closest feature of the master surface gives the signed distance, as in 2D. ``seg_open`` (nseg,)
+    flags per facet, bit ``e`` set when border edge ``e`` (see :func:`facet_closest`) is an edge of the
+    master surface (no neighbouring facet): beyond such an edge the closest feature is the edge itself,
+    and the distance to it changes sign with the side of the facet plane only through zero when the
+    node passes the edge exactly in that plane. A node just beyond it (tangential overshoot up to
+    ``OPEN_TOL`` of the facet radius) therefore takes the normal distance to the facet plane at the edge
+    (continuous with the inside zone); farther out it is not in contact. Without that rule a node
+    sliding past the end of a cut master flank switched from no contact to a penetration as deep as its
+    distance to the edge (tens of um) when it crossed the facet plane: 0.1-1 J out of nothing per event.
     """
     epot = 0.0
     pfric = 0.0
@@ -278,31 +361,9 @@ def contact_forces_3d(x, v, slaves, s_pair, segs, g_k, cand, ncand, p_mu, p_vreg
         n = slaves[i]
         p = s_pair[i]
         depth = p_depth[p]
-        best = -1
-        bd = 0.0
-        bin_ = False
-        bxi = 0.0; beta = 0.0
-        for m in range(ncand[i]):
-            s = cand[i, m]
-            xi, eta, d, inside = facet_closest(x, segs, s, n)
-            if best < 0 or d < bd * (1 - 1e-12) or (d <= bd * (1 + 1e-12) and inside and not bin_):
-                best = s; bd = d; bin_ = inside; bxi = xi; beta = eta
-        if best < 0:
-            continue
-        p0, p1, p2, a0, a1, a2, c0, c1, c2 = _facet_point(x, segs, best, bxi, beta)
-        n0 = a1 * c2 - a2 * c1; n1 = a2 * c0 - a0 * c2; n2 = a0 * c1 - a1 * c0
-        nl = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
-        n0 /= nl; n1 /= nl; n2 /= nl
-        r0 = x[n, 0] - p0; r1 = x[n, 1] - p1; r2 = x[n, 2] - p2
-        if r0 * n0 + r1 * n1 + r2 * n2 >= 0.0 or bd >= depth:
-            continue   # outside the master body, or deeper than the capture depth
-        bg = -bd
-        if not bin_ and bd > 1e-9 * math.sqrt(nl):
-            bn0 = -r0 / bd; bn1 = -r1 / bd; bn2 = -r2 / bd   # border zone: towards the closest point
-        else:
-            bn0 = n0; bn1 = n1; bn2 = n2
-        if best < 0:
-            continue
+        best, bxi, beta, bg, bn0, bn1, bn2 = _signed_gap_3d(x, segs, g_rad, seg_open, cand, ncand, i, n)
+        if best < 0 or bg >= 0.0 or -bg >= depth:
+            continue   # no facet, outside the master body, or deeper than the capture depth
         N0 = 0.25 * (1 - bxi) * (1 - beta)
         N1 = 0.25 * (1 + bxi) * (1 - beta)
         N2 = 0.25 * (1 + bxi) * (1 + beta)

@@ -178,6 +178,7 @@ def prepare(model: ExplicitModel, safety: float = 0.9, max_candidates: int = 8) 
     d["cand"] = np.zeros((ns, max_candidates), np.int64)
     d["ncand"] = np.zeros(ns, np.int64)
     d["gap"] = np.zeros(ns)
+    d["seg_open"] = _open_edges(d["segs"], d["g_pair"])
     d["c_nodes"] = np.unique(np.concatenate([d["slaves"], d["segs"].ravel()])) if nc else np.zeros(0, np.int64)
     # selective mass scaling of the nodes below the target step (free nodes only)
     d["added_mass"] = 0.0
@@ -227,6 +228,19 @@ def _initial_state(model: ExplicitModel, d: dict):
     r_prev[:, 4] = r_th
     r_prev[:, 6] = r_th
     return u, v, r_th, r_om, r_prev
+
+
+def _open_edges(segs: np.ndarray, g_pair: np.ndarray) -> np.ndarray:
+    """Per segment, bit ``e`` set when its border edge ``e`` (nodes ``e``, ``e + 1``; 3D facets) belongs to no
+    other segment of the same contact pair: an edge of the master surface. 2D segments get 0."""
+    out = np.zeros(len(segs), np.int64)
+    if segs.ndim != 2 or segs.shape[1] != 4 or len(segs) == 0:
+        return out
+    ed = np.stack([np.sort(np.stack([segs[:, e], segs[:, (e + 1) % 4]], axis=1), axis=1) for e in range(4)], axis=1)
+    keys = np.concatenate([np.repeat(g_pair, 4)[:, None], ed.reshape(-1, 2)], axis=1)
+    _, inv, cnt = np.unique(keys, axis=0, return_inverse=True, return_counts=True)
+    single = (cnt[inv.ravel()] == 1).reshape(-1, 4)
+    return (single * (1 << np.arange(4))).sum(axis=1).astype(np.int64)
 
 
 def solve(model: ExplicitModel, t_end: float, sample_period: float | None = None, *,
@@ -311,14 +325,15 @@ def solve(model: ExplicitModel, t_end: float, sample_period: float | None = None
                            d["r_fixtr"], d["r_kb"], d["r_cb"], r_pos, r_vel, r_acc, r_th, r_om, r_al, r_prev,
                            d["slaves"], d["s_pair"], d["segs"], d["g_pair"], d["g_k"], d["g_rad"], d["p_mu"],
                            d["p_vreg"], d["p_depth"], d["margin"], d["cell_h"], d["head"], d["nxt"],
-                           d["cand"], d["ncand"], d["gap"], d["c_nodes"], c_usearch,
+                           d["cand"], d["ncand"], d["gap"], d["seg_open"], d["c_nodes"], c_usearch,
                            acc, out_t[sl], out_E[sl], out_th[sl], out_om[sl], out_tq[sl], out_pos[sl],
                            probes, out_pu[sl], out_pv[sl])
         row = (row - 1 if c else 0) + written
         t0 += nsteps * step_dt
         if not np.all(np.isfinite(u)):
             raise ModelError(f"explicit run diverged before t = {t0:.4e} s (non-finite displacement)")
-        log.info("explicit: t = %.4e / %.4e s, wall %.1f s", t0, t_end, time.perf_counter() - wall0)
+        log.info("explicit: t = %.4e / %.4e s, wall %.1f s, energy balance error %.3g J (external work %.3g J)",
+                 t0, t_end, time.perf_counter() - wall0, out_E[row - 1, 9], out_E[row - 1, 8])
     wall = time.perf_counter() - wall0
     nsteps_total = n_out_total * out_every
     meta = dict(dim=dim, n_nodes=n, n_elements=int(model.elements.shape[0]), dt_s=step_dt,

@@ -26,17 +26,18 @@ zero backlash, has a negative tip-root clearance (ra1 + rf2 and ra2 + rf1 exceed
 tip-fillet interference below the root form circles (config warning); outside these sets the bodies
 may overlap without contact, as the LTCA ignores them.
 
-Known problem (not solved, see tests/fe_explicit/test_explicit_helical.py, strict xfail): under load the
-3D node-to-facet penalty contact of this model creates energy in bursts that grow into an instability
-(energy balance error of hundreds of J against ~1 J of external work within 0.1-0.5 ms). It does not
-depend on the time step (0.3x the step: the same), the mass scaling, the hourglass viscosity, the
-candidate count or staggered layer planes; it shrinks with the penalty factor (0.02: ~5 J). With the
-projection contact before commit c3c5663 it came as bursts of ~1 J (penalty 0.3); with the closest-feature
-contact of c3c5663 and contact sets cut at both flank ends it explodes at first load (0.1 ms), with the
-sets cut only below the root form circle it grows over milliseconds (262 J in a 5.9 ms run at 2000 rpm).
-Suspect: border features of the truncated master flank (closest point on a facet border edge, normal
-towards it) and the layer creases the slave nodes sit on. Until it is found, the reference runs of
-validation/run_explicit_helical.py are not valid.
+Start gap: the sections are placed by the rigid outline touch (bisection per layer), then the output is
+turned until the 3D contact's own smallest gap (:func:`contact_min_gap`, normal gap / cos(beta_b) on the
+line of action) equals the set-up clearance: the outline touch may come from points outside the contact
+sets (the mate's tip passing the root), which left the coarse pair ~8 um wider than intended.
+
+Contact energy (solved problem, kept for the record): until the open-edge rule of
+:func:`gearrom.fe.explicit.contact.contact_forces_3d` the 3D runs created energy in bursts that grew into an
+instability (hundreds of J against ~1 J of external work). Cause: the contact sets end inside the meshing
+zone (cut flank ends, the end faces), and a slave node beyond such an edge, whose closest master feature is
+the edge, was taken as penetrating as soon as it crossed the facet plane, with its whole distance to the
+edge (48 um in the traced event) as the penetration. Slave sets are also cut to the radii whose conjugate
+points lie on the mate's facets, so that every loaded slave has a master facet.
 """
 from __future__ import annotations
 
@@ -226,8 +227,22 @@ def helical_pair_model(pair, meshes, setup: GearPairSetup, n_layers: int, materi
     r_top = [math.hypot(pair.rb[g], loa - roll_ff[1 - g]) for g in (0, 1)]
     rt = np.where(np.arange(n2d) < off, r_top[0], r_top[1])
     on_root = (rad < rf - _ROOT_BAND) | (rad > rt + _ROOT_BAND)
-    slaves = {k: np.asarray(m2d.node_sets[k])[~on_root[np.asarray(m2d.node_sets[k])]] for k in ("flank_1", "flank_2")}
     surfs = {k: np.asarray(v)[~on_root[np.asarray(v)].any(axis=1)] for k, v in m2d.surfaces.items()}
+    # The master facets end at the last outline nodes inside [rf, rt], short of those radii by up to one
+    # facet. A slave node is kept only where its conjugate point on the transverse line of action lies on
+    # the mate's facets: otherwise it meets the mate beyond the facet set's edge, where the penalty contact
+    # has no surface (a first touch there was invisible to the contact: the pair closed ~10 um before
+    # the flanks took load on the coarse mesh).
+    cov = [rad[np.unique(surfs[k])] for k in ("outline_1", "outline_2")]
+
+    def conjugate(g: int, r_mate: float) -> float:
+        return math.hypot(pair.rb[g], loa - math.sqrt(max(r_mate ** 2 - pair.rb[1 - g] ** 2, 0.0)))
+
+    r_lo = [max(0.5 * pair.dff[g], conjugate(g, cov[1 - g].max())) for g in (0, 1)]
+    r_hi = [min(r_top[g], conjugate(g, cov[1 - g].min())) for g in (0, 1)]
+    is1 = np.arange(n2d) < off
+    off_slave = (rad < np.where(is1, r_lo[0], r_lo[1]) - _ROOT_BAND) | (rad > np.where(is1, r_hi[0], r_hi[1]) + _ROOT_BAND)
+    slaves = {k: np.asarray(m2d.node_sets[k])[~off_slave[np.asarray(m2d.node_sets[k])]] for k in ("flank_1", "flank_2")}
     drive1 = slaves["flank_1"]
     drive2 = slaves["flank_2"] - off
     poly_loop1 = outline_order(_outer_loop_segments(q2[(q2 < off).all(axis=1)], set(m2d.node_sets["bore_1"].tolist())))
@@ -290,6 +305,26 @@ def helical_pair_model(pair, meshes, setup: GearPairSetup, n_layers: int, materi
         return np.vstack([np.column_stack([sg[:, 0] + k * m, sg[:, 1] + k * m, sg[:, 1] + (k + 1) * m,
                                            sg[:, 0] + (k + 1) * m]) for k in range(nl - 1)])
 
+    sets = {k: layers(slaves.get(k, v)) for k, v in node_sets.items()}
+    surfaces = {k: faces(v) for k, v in surfs.items()}
+    # -- start gap as the 3D contact sees it: the rigid section touch above may come from outline points
+    # outside the contact sets (the mate's tip passing the root: negative tip-root clearance), so the
+    # output is turned until the contact's own smallest gap is the clearance on the line of action
+    g1 = np.arange(nodes.shape[0]) < base[1][2]
+    cos_bb = math.cos(pair.beta_b)
+    gap_start = []
+    for _ in range(3):
+        probe = ExplicitModel(nodes, hexes, m2d.material, node_sets=sets, surfaces=surfaces, references=refs,
+                              contacts=m2d.contacts)
+        g_loa = contact_min_gap(probe) / cos_bb
+        gap_start.append(g_loa)
+        turn = (g_loa - setup.clearance) / rb2
+        if abs(turn * rb2) < 1e-9:
+            break
+        rot = _rot(nodes[~g1, :2], c2, turn)      # counter-clockwise closes the drive flanks
+        nodes[~g1, :2] = rot
+    log.info("helical: contact gap on the line of action at the start %s um (target %.3f um)",
+             np.round(np.array(gap_start) * 1e6, 3).tolist(), setup.clearance * 1e6)
     omega1, omega2 = info2["omega_in"], info2["omega_out"]
     v0 = None
     if m2d.initial_velocity is not None:
@@ -298,10 +333,8 @@ def helical_pair_model(pair, meshes, setup: GearPairSetup, n_layers: int, materi
         v0[g1, :2] = omega1 * np.column_stack([-nodes[g1, 1], nodes[g1, 0]])
         r = nodes[~g1, :2] - c2
         v0[~g1, :2] = omega2 * np.column_stack([-r[:, 1], r[:, 0]])
-    sets = {k: layers(slaves.get(k, v)) for k, v in node_sets.items()}
     model = ExplicitModel(
-        nodes, hexes, m2d.material, node_sets=sets,
-        surfaces={k: faces(v) for k, v in surfs.items()},
+        nodes, hexes, m2d.material, node_sets=sets, surfaces=surfaces,
         references=refs, contacts=m2d.contacts, initial_velocity=v0, mass_damping=setup.mass_damping,
         integration=setup.integration, hourglass_stiffness=setup.hourglass_stiffness,
         hourglass_viscosity=setup.hourglass_viscosity,
@@ -312,8 +345,28 @@ def helical_pair_model(pair, meshes, setup: GearPairSetup, n_layers: int, materi
     info = dict(info2, n_layers=n_layers, layer_m=width / n_layers, width_m=width, twist_per_layer_rad=dtw,
                 twist_sag_m=sag, layer_slack_m=[s * rb2 for s in slack], n_gear1_2d=off, n_nodes_2d=n2d,
                 z_layers=(z_gear[0].tolist(), z_gear[1].tolist()), n_nodes_gear1=int(base[1][2]),
-                removed_inertia_kgm2=removed_j, sector=run_angle is not None)
+                removed_inertia_kgm2=removed_j, sector=run_angle is not None, start_gap_loa_m=gap_start)
     return model, info
+
+
+def contact_min_gap(model: ExplicitModel) -> float:
+    """Smallest signed gap (m) between the slave nodes and master facets of a 3D model, as the contact sees it
+    (nodes deeper than the capture depth are not in contact and are left out).
+
+    Raises MeshError when no slave node has a master facet within reach.
+    """
+    from gearrom.fe.explicit.contact import contact_search, signed_gaps_3d
+    from gearrom.fe.explicit.driver import prepare
+
+    d = prepare(model, 0.9, 32)
+    x = np.asarray(model.nodes, float)
+    contact_search(x, d["slaves"], d["s_pair"], d["segs"], d["g_pair"], d["g_rad"], d["margin"] + d["p_depth"].max(),
+                   d["head"], d["nxt"], d["cand"], d["ncand"], d["cell_h"])
+    g = signed_gaps_3d(x, d["slaves"], d["segs"], d["g_rad"], d["cand"], d["ncand"], d["seg_open"])
+    g = g[g > -d["p_depth"][d["s_pair"]]]      # deeper than the capture depth: not a contact (other side)
+    if g.size == 0:
+        raise MeshError("helical pair: no contact node has a master facet within reach at the start position")
+    return float(g.min())
 
 
 def _cut_sectors(pair, X2, q2, off, slaves, surfs, node_sets, rho, width, run_angle, twist_max, margin_teeth):

@@ -74,7 +74,7 @@ def _run_loop(nsteps, dt, out_every, t0,
              r_nodes, r_ptr, r_off, r_M, r_J, r_mode, r_speed, r_ramp, r_torque, r_tramp,
              r_k, r_c, r_fixtr, r_kb, r_cb, r_pos, r_vel, r_acc, r_th, r_om, r_al, r_prev,
              slaves, s_pair, segs, g_pair, g_k, g_rad, p_mu, p_vreg, p_depth, margin, cell_h,
-             head, nxt, cand, ncand, gap, c_nodes, c_usearch,
+             head, nxt, cand, ncand, gap, seg_open, c_nodes, c_usearch,
              acc, out_t, out_E, out_th, out_om, out_tq, out_pos, probes, out_pu, out_pv):
     """Advance the model ``nsteps`` steps of ``dt`` from time ``t0``; state arrays are updated in place.
 
@@ -190,8 +190,8 @@ def _run_loop(nsteps, dt, out_every, t0,
                 epen, pfr = contact_forces_2d(a, v, slaves, s_pair, segs, g_k, cand, ncand,
                                               p_mu, p_vreg, p_depth, f, gap)
             else:
-                epen, pfr = contact_forces_3d(a, v, slaves, s_pair, segs, g_k, cand, ncand,
-                                              p_mu, p_vreg, p_depth, f, gap)
+                epen, pfr = contact_forces_3d(a, v, slaves, s_pair, segs, g_k, g_rad, cand, ncand,
+                                              p_mu, p_vreg, p_depth, f, gap, seg_open)
         if step > 0:
             acc[1] += pfr * dt
         # ---- nodal loads (trapezoidal work)

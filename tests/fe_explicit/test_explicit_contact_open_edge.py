@@ -1,0 +1,105 @@
+"""3D node-to-facet contact at an edge of the master surface (a cut flank end, the gear's end face).
+
+References: plane geometry (the distance of a point to a plane and to a parallelogram, the latter by dense
+sampling of the parallelogram, a method independent of the kernel's Newton/edge projection) and potential
+theory (a conservative contact force has zero circulation around a closed path).
+
+The failure these tests pin down: beyond an edge of the master surface the closest feature is the edge, and
+the old rule took a node there as penetrating as soon as it crossed the facet plane, with the full distance
+to the edge as its penetration: a node passing a cut flank end 48 um from it received 0.1-1 J out of nothing
+(the helical pair's 3D runs blew up at first load).
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from gearrom.fe.explicit.contact import OPEN_TOL, contact_forces_3d, facet_closest, signed_gaps_3d
+from gearrom.fe.explicit.driver import _open_edges
+
+H = 1e-3          # facet size, m
+K = 1e9           # penalty stiffness, N/m
+DEPTH = 0.2e-3    # capture depth, m
+
+# master: one or two unit facets in the plane z = 0, outward normal +z (body below)
+ONE = (np.array([[0, 0, 0], [H, 0, 0], [H, H, 0], [0, H, 0]], float), np.array([[0, 1, 2, 3]]))
+TWO = (np.array([[0, 0, 0], [H, 0, 0], [H, H, 0], [0, H, 0], [2 * H, 0, 0], [2 * H, H, 0]], float),
+       np.array([[0, 1, 2, 3], [1, 4, 5, 2]]))
+
+
+def _contact(master, p):
+    nodes, segs = master
+    x = np.vstack([nodes, p])
+    n = len(nodes)
+    g_rad = np.array([np.linalg.norm(x[s] - x[s].mean(axis=0), axis=1).max() for s in segs])
+    seg_open = _open_edges(segs, np.zeros(len(segs), np.int64))
+    f = np.zeros_like(x)
+    gap = np.zeros(1)
+    cand = np.array([list(range(len(segs)))])
+    e, _ = contact_forces_3d(x, np.zeros_like(x), np.array([n]), np.array([0]), segs, np.full(len(segs), K), g_rad,
+                             cand, np.array([len(segs)]), np.array([0.0]), np.array([1e-3]), np.array([DEPTH]), f,
+                             gap, seg_open)
+    g = signed_gaps_3d(x, np.array([n]), segs, g_rad, cand, np.array([len(segs)]), seg_open)[0]
+    return f[n].copy(), e, g
+
+
+def test_open_edges_of_a_strip():
+    """Two facets sharing one edge: every edge but the shared one is an edge of the surface."""
+    bits = _open_edges(TWO[1], np.zeros(2, np.int64))
+    assert bits[0] == 0b1101       # edge 1 (nodes 1-2, xi = +1) shared
+    assert bits[1] == 0b0111       # edge 3 (nodes 2-1, xi = -1) shared
+
+
+def test_node_beyond_the_edge_is_not_captured_when_crossing_the_plane():
+    """48 um beyond the open edge, 1 um below the facet plane: not in contact (the old rule: 48 um deep)."""
+    f, e, g = _contact(ONE, np.array([H + 48e-6, 0.5 * H, -1e-6]))
+    assert np.all(f == 0.0) and e == 0.0 and np.isnan(g)
+
+
+def test_just_beyond_the_edge_takes_the_plane_distance():
+    """Within the overshoot tolerance the gap is the normal distance to the facet plane (continuous with inside)."""
+    tol = OPEN_TOL * np.sqrt(0.5) * H
+    for dx in (-1e-9, 1e-9, 0.5 * tol):
+        f, e, g = _contact(ONE, np.array([H + dx, 0.5 * H, -2e-6]))
+        assert g == pytest.approx(-2e-6, rel=1e-6)
+        np.testing.assert_allclose(f, [0.0, 0.0, K * 2e-6], rtol=1e-6, atol=1e-9)
+        assert e == pytest.approx(0.5 * K * 4e-12, rel=1e-6)
+
+
+def test_shared_edge_is_not_open():
+    """Across the shared edge of the strip the node is inside the second facet: the plain distance."""
+    f, e, g = _contact(TWO, np.array([H + 48e-6, 0.5 * H, -1e-6]))
+    assert g == pytest.approx(-1e-6, rel=1e-6)
+    np.testing.assert_allclose(f, [0.0, 0.0, K * 1e-6], rtol=1e-6, atol=1e-9)
+
+
+def test_zero_circulation_across_the_open_edge():
+    """A closed loop through the contact zone, over the open edge and back: no work out of nothing
+    (apart from the tolerance band's drop-out, which a loop inside the band never crosses)."""
+    tol = OPEN_TOL * np.sqrt(0.5) * H
+    c, r = np.array([H, 0.5 * H, -1.0e-6]), np.array([0.4 * tol, 0.0, 0.8e-6])
+    phi = np.linspace(0.0, 2 * np.pi, 4001)
+    pts = c + np.outer(np.cos(phi), [r[0], 0, 0]) + np.outer(np.sin(phi), [0, 0, r[2]])
+    mid = 0.5 * (pts[1:] + pts[:-1])
+    forces = [_contact(ONE, m)[0] for m in mid]
+    work = sum(float(fm @ d) for fm, d in zip(forces, np.diff(pts, axis=0)))
+    fmax = max(np.linalg.norm(fm) for fm in forces)
+    assert fmax > 0.0
+    assert abs(work) < 1e-4 * fmax * 2 * np.pi * r[2]
+
+
+def test_closest_point_of_a_skewed_facet_matches_dense_sampling():
+    """Parallelogram facet (non-orthogonal edges): clamping the parametric projection is not the closest
+    point; the kernel's edge projection must agree with a dense sampling of the facet."""
+    nodes = np.array([[0, 0, 0], [1, 0, 0], [1.8, 1, 0.1], [0.8, 1, 0.1]], float) * H
+    s = np.linspace(-1, 1, 801)
+    xi, eta = np.meshgrid(s, s)
+    w = [0.25 * (1 - xi) * (1 - eta), 0.25 * (1 + xi) * (1 - eta), 0.25 * (1 + xi) * (1 + eta),
+         0.25 * (1 - xi) * (1 + eta)]
+    surf = sum(wq[..., None] * nodes[q] for q, wq in enumerate(w)).reshape(-1, 3)
+    rng = np.random.default_rng(5)
+    for p in rng.uniform([-1.0, -1.0, -0.5], [3.0, 2.0, 0.5], size=(40, 3)) * H:
+        x = np.vstack([nodes, p])
+        _, _, d, _, _ = facet_closest(x, np.array([[0, 1, 2, 3]]), 0, 4)
+        ref = np.min(np.linalg.norm(surf - p, axis=1))
+        assert d == pytest.approx(ref, abs=2e-3 * H)
