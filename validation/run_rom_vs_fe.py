@@ -1,10 +1,10 @@
-"""The ROM-vs-explicit-FE report files of the stored spur references (issue 5).
+"""The ROM-vs-explicit-FE report files of the stored references (issue 5).
 
-Usage: ``python validation/run_rom_vs_fe.py [--integration {full,reduced}]``: writes
-validation/rom_vs_fe_spur[_full].json/.png (``gearrom validate thesis-spur --rpm 1250 2000`` on the
+Usage: ``python validation/run_rom_vs_fe.py [--integration {full,reduced}] [--pair {spur,helical}]``: writes
+validation/rom_vs_fe_<pair>[_full].json/.png (``gearrom validate thesis-<pair> --rpm 1250 2000`` on the
 stored records of that element integration, the speeds whose records exist), the same with the exudyn
-drivetrain ROM in ``..._exudyn.json``, and validation/quasistatic_spur_60rpm[_full].json (the slow run
-against the quasi-static STE).
+drivetrain ROM in ``..._exudyn.json``, and for the spur pair validation/quasistatic_spur_60rpm[_full].json
+(the slow run against the quasi-static STE).
 """
 from __future__ import annotations
 
@@ -20,14 +20,14 @@ HERE = Path(__file__).resolve().parent
 log = logging.getLogger("run_rom_vs_fe")
 
 
-def main(integration: str = "full") -> list[Path]:
+def main(integration: str = "full", pair: str = "spur") -> list[Path]:
     tag = "_full" if integration == "full" else ""
-    rpms = [r for r in (1250, 2000) if record_stem(HERE, r, integration=integration).with_suffix(".npz").is_file()]
+    rpms = [r for r in (1250, 2000) if record_stem(HERE, r, pair, integration).with_suffix(".npz").is_file()]
     written = []
     if rpms:
         for rom in ("pair", "exudyn"):
-            rep = validate("thesis-spur", rpms, fe_dir=HERE, rom_model=rom, fe_integration=integration)
-            stem = HERE / (f"rom_vs_fe_spur{tag}" + ("_exudyn" if rom == "exudyn" else ""))
+            rep = validate(f"thesis-{pair}", rpms, fe_dir=HERE, rom_model=rom, fe_integration=integration)
+            stem = HERE / (f"rom_vs_fe_{pair}{tag}" + ("_exudyn" if rom == "exudyn" else ""))
             written.append(rep.save(stem.with_suffix(".json")))
             if rom == "pair":
                 fig = rep.plot()
@@ -35,7 +35,7 @@ def main(integration: str = "full") -> list[Path]:
                 written.append(stem.with_suffix(".png"))
             for s in rep.speeds:
                 log.info("%s ROM, %g rpm: %s", rom, s.rpm_in, "pass" if s.passed else "; ".join(s.misses))
-    if record_stem(HERE, 60, integration=integration).with_suffix(".npz").is_file():
+    if pair == "spur" and record_stem(HERE, 60, integration=integration).with_suffix(".npz").is_file():
         q = quasistatic_check("thesis-spur", 60.0, fe_dir=HERE, integration=integration)
         out = HERE / f"quasistatic_spur_60rpm{tag}.json"
         out.write_text(json.dumps(q, indent=2) + "\n")
@@ -49,4 +49,6 @@ if __name__ == "__main__":
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--integration", choices=("full", "reduced"), default="full")
-    main(ap.parse_args().integration)
+    ap.add_argument("--pair", choices=("spur", "helical"), default="spur")
+    a = ap.parse_args()
+    main(a.integration, a.pair)

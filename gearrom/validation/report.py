@@ -87,11 +87,12 @@ def load_fe_record(fe_dir: str | Path, rpm: float, prefix: str = "spur", integra
     return FERecord(t=t, theta_in=th[:, 0] - th[0, 0], te=te, meta=meta, source="stored")
 
 
-def output_inertia(pair, outline_size: float, body_size: float) -> tuple[float, str]:
-    """Polar inertia of the output gear from the explicit FE's own mesh (same sizes), and a label."""
+def output_inertia(pair, outline_size: float, body_size: float, grading: float | None = None) -> tuple[float, str]:
+    """Polar inertia of the output gear from the explicit FE's own mesh (same sizes, m), and a label."""
     from gearrom.fe.explicit.gearmesh import gear_quad_mesh
 
-    nodes, quads, _ = gear_quad_mesh(pair, 1, outline_size, body_size)
+    kw = {} if grading is None else {"grading": grading}
+    nodes, quads, _ = gear_quad_mesh(pair, 1, outline_size, body_size, **kw)
     g = pair.gears[1]
     j = polar_inertia(nodes, quads, (0.0, 0.0), g.material.density, min(pair.gears[0].face_width, g.face_width))
     return j, f"rho b int r^2 dA over the FE output-gear quad mesh ({outline_size * 1e3:g}/{body_size * 1e3:g} mm)"
@@ -312,8 +313,8 @@ def validate(config: str, rpms, fe_dir: str | Path | None = None, fresh: bool = 
         Stored records of the explicit FE with ``"full"`` (fully integrated Q4, no hourglass energy:
         ``spur_<rpm>rpm_full.*``) or ``"reduced"`` elements (one-point + hourglass control:
         ``spur_<rpm>rpm.*``). Default for spur pairs: per speed the fully integrated record where it is
-        stored, else the one-point one (each speed's ``fe.integration`` in the report says which);
-        helical records are one-point.
+        stored, else the one-point one (each speed's ``fe.integration`` in the report says which); the
+        same for helical records (``helical_<rpm>rpm[_full].*``, Hex8).
     """
     if fe_integration is not None and fe_integration not in FE_INTEGRATIONS:
         raise ConfigError(f"fe_integration must be one of {FE_INTEGRATIONS}, got {fe_integration!r}")
@@ -346,8 +347,7 @@ def validate(config: str, rpms, fe_dir: str | Path | None = None, fresh: bool = 
         if not rpm > 0:
             raise ConfigError(f"--rpm values must be > 0, got {rpm}")
         records[rpm] = (fresh_fe_record(pair, rpm, cfg.operating.torque_out) if fresh
-                        else load_fe_record(fe_dir, rpm, prefix, "reduced" if helical
-                                            else fe_integration or _preferred_integration(fe_dir, rpm)))
+                        else load_fe_record(fe_dir, rpm, prefix, fe_integration or _preferred_integration(fe_dir, rpm, prefix)))
     speeds = []
     cache: dict = {}
     for rpm, fe in records.items():
@@ -359,9 +359,10 @@ def validate(config: str, rpms, fe_dir: str | Path | None = None, fresh: bool = 
         ex, ex_label, provenance = cache[torque]
         if provenance is not None:
             _check_same_mesh(provenance, fe)
-        key = (fe.meta.get("outline_size_mm", 0.15), fe.meta.get("body_size_mm", 1.5))   # helical: transverse mesh
+        key = (fe.meta.get("outline_size_mm", 0.15), fe.meta.get("body_size_mm", 1.5),   # helical: transverse mesh
+               fe.meta.get("grading_mm"))
         if key not in cache:
-            cache[key] = output_inertia(pair, key[0] * 1e-3, key[1] * 1e-3)
+            cache[key] = output_inertia(pair, key[0] * 1e-3, key[1] * 1e-3, None if key[2] is None else key[2] * 1e-3)
         j2, j_label = cache[key]
         kin = None
         if facets:
@@ -375,9 +376,9 @@ def validate(config: str, rpms, fe_dir: str | Path | None = None, fresh: bool = 
     return ValidationReport(cfg.name, speeds)
 
 
-def _preferred_integration(fe_dir: Path, rpm: float) -> str:
-    """"full" where the fully integrated spur record of ``rpm`` is stored, else "reduced"."""
-    return "full" if record_stem(fe_dir, rpm, "spur", "full").with_suffix(".npz").is_file() else "reduced"
+def _preferred_integration(fe_dir: Path, rpm: float, prefix: str = "spur") -> str:
+    """"full" where the fully integrated record of ``rpm`` is stored, else "reduced"."""
+    return "full" if record_stem(fe_dir, rpm, prefix, "full").with_suffix(".npz").is_file() else "reduced"
 
 
 def fe_damping_ratio(fe: FERecord) -> float:

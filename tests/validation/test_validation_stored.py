@@ -129,7 +129,8 @@ HELICAL_MISSES: dict[int, str] = {     # rpm -> measured miss (from the committe
 
 
 def _have_helical(rpm: int) -> bool:
-    return all((DEFAULT_FE_DIR / f"helical_{rpm}rpm{ext}").is_file() for ext in (".npz", ".json"))
+    return any(all((DEFAULT_FE_DIR / f"helical_{rpm}rpm{tag}{ext}").is_file() for ext in (".npz", ".json"))
+               for tag in ("", "_full"))
 
 
 @pytest.fixture(scope="module")
