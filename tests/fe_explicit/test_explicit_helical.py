@@ -162,3 +162,20 @@ def test_staggered_layers(helical, coarse_meshes):
     assert np.allclose(info["z_layers"][1], [-b / 2, -b / 4, b / 4, b / 2])
     _, vol, _, _ = element_geometry(np.asarray(model.nodes), np.asarray(model.elements))
     assert np.all(vol > 0)
+
+
+def test_every_slave_meets_the_mate_on_its_facets(helical, coarse_meshes):
+    """Involute geometry: a flank point at radius r of gear g meets the mate, on the transverse line of action,
+    at the radius with roll length aw sin(alpha_wt) - sqrt(r^2 - rb_g^2). Every slave node's mate point must
+    lie within the radii the mate's master facets cover (else it would load a facet-set edge)."""
+    model, _ = helical_pair_model(helical, coarse_meshes, GearPairSetup(), 2)
+    x = np.asarray(model.nodes)
+    centres = (np.zeros(2), np.array([helical.aw, 0.0]))
+    loa = helical.aw * math.sin(helical.alpha_wt)
+    rb = helical.rb
+    for g, (slave, master) in enumerate((("flank_1", "outline_2"), ("flank_2", "outline_1"))):
+        r_s = np.hypot(*(x[model.node_sets[slave], :2] - centres[g]).T)
+        r_m = np.hypot(*(x[np.unique(model.surfaces[master]), :2] - centres[1 - g]).T)
+        mate = np.hypot(rb[1 - g], loa - np.sqrt(r_s ** 2 - rb[g] ** 2))
+        assert mate.min() >= r_m.min() - 2e-6 and mate.max() <= r_m.max() + 2e-6
+        assert r_s.min() >= 0.5 * helical.dff[g] - 2e-6            # no slave in the fillet
