@@ -125,6 +125,12 @@ def test_exudyn_rom_agrees_with_pair_rom_on_the_references(report):
 
 # ---- helical pair: 3D Hex8 explicit FE (validation/run_explicit_helical.py, coarser mesh, >= 5 periods)
 HELICAL_MISSES: dict[int, str] = {     # rpm -> measured miss (from the committed helical references)
+    2000: "DTE RMS -84.7 % (ROM 0.41 vs FE 2.69 um) > 10 %, GMF1 -21.5 % > 10 %, GMF2 -73.3 % > 20 %, "
+          "GMF3 -64.9 % > 20 %, GMF1 phase +43.6 deg > 15 deg; mean TE -25.4 % (ROM 12.95 vs FE 17.35 um). "
+          "The 3D explicit model (0.3 mm transverse outline, 8 layers, sector bodies, penalty 0.1) is softer "
+          "than the helical LTCA table, so its mesh mode and start-up vibration differ; the helical GMF "
+          "amplitudes are 0.01-0.1 um, below the FE's faceting and vibration content "
+          "(validation/rom_vs_fe_helical_full.json)",
 }
 
 
@@ -151,6 +157,11 @@ def test_helical_report_structure(helical_report, tmp_path):
         for key in ("dte_rms_um", "gmf1_amplitude_um", "gmf2_amplitude_um", "gmf3_amplitude_um"):
             assert all(math.isfinite(s["metrics"][key][k]) for k in ("rom", "fe", "rel_error"))
         assert s["passed"] == (not s["misses"])
+    for s in helical_report.speeds:
+        # issue 5: hourglass energy below 1 % of internal (fully integrated Hex8: none); the energy balance of
+        # the undamped run (energy conservation of the central-difference scheme) within 2 % of the largest energy
+        assert s.fe.meta["hourglass_ratio"] < 0.01
+        assert s.fe.meta["energy_error"] < 0.02
 
 
 @pytest.mark.parametrize("rpm", speed_params(RPMS, HELICAL_MISSES))
