@@ -131,7 +131,9 @@ HELICAL_MISSES: dict[int, str] = {     # rpm -> measured miss (from the committe
     2000: "DTE RMS -84.7 % (ROM 0.41 vs FE 2.69 um) > 10 %, GMF1 -21.5 % > 10 %, GMF2 -73.3 % > 20 %, "
           "GMF3 -64.9 % > 20 %, GMF1 phase +43.6 deg > 15 deg; mean TE -25.4 % (ROM 12.95 vs FE 17.35 um). "
           "The 3D explicit model (0.3 mm transverse outline, 8 layers, sector bodies, penalty 0.1) is softer "
-          "than the helical LTCA table, so its mesh mode and start-up vibration differ; the helical GMF "
+          "than the helical LTCA table: static TE 17.8 um with the run's sector, 20.1 um with the meshing teeth "
+          "only, 18.8 um with penalty 0.3 (validation/static_helical.json), so its mesh mode (order ~4.1 vs 4.4) "
+          "and start-up vibration differ; the helical GMF "
           "amplitudes are 0.01-0.1 um, below the FE's faceting and vibration content "
           "(validation/rom_vs_fe_helical_full.json)",
 }
