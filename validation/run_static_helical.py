@@ -25,6 +25,7 @@ from gearrom.config import load_config
 from gearrom.fe.explicit.driver import prepare, solve
 from gearrom.fe.explicit.gearpair import GearPairSetup, transmission_error
 from gearrom.fe.explicit.helical3d import helical_meshes, helical_pair_model
+from run_explicit_helical import BODY, GRADING, HOURGLASS, LAYERS, MASS_SCALING_DT, OUTLINE
 
 HERE = Path(__file__).resolve().parent
 
@@ -33,11 +34,12 @@ def main(run_angle: float = 0.0, penalty: float = 0.1) -> dict:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         pair = load_config("thesis-helical").pair
-    meshes = helical_meshes(pair, 0.3e-3, 2.5e-3, 1e-3)
+    meshes = helical_meshes(pair, OUTLINE, BODY, GRADING)
     setup = GearPairSetup(rpm_in=1e-4, torque_out=120.0, torque_ramp_time=0.2e-3, penalty_scale=penalty,
-                          hourglass_stiffness=0.1, mass_scaling_dt=2.2e-8, integration="full", mass_damping=4e4)
+                          hourglass_stiffness=HOURGLASS, mass_scaling_dt=MASS_SCALING_DT, integration="full",
+                          mass_damping=4e4)
     t0 = time.perf_counter()
-    model, info = helical_pair_model(pair, meshes, setup, 8, run_angle=run_angle if run_angle > 0 else 0.0)
+    model, info = helical_pair_model(pair, meshes, setup, LAYERS, run_angle=run_angle)
     res = solve(model, 1.5e-3, 5e-6, prepared=prepare(model, 0.9, 32), parallel=False)
     te = transmission_error(res, info["rb"], info["clearance_angle"])
     m = res.t > 1.2e-3
