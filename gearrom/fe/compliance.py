@@ -17,7 +17,6 @@ bending, shear, fillet and rim/body deformation down to the bore, and the local 
 """
 from __future__ import annotations
 
-import hashlib
 import json
 import logging
 import math
@@ -29,6 +28,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from gearrom.errors import MeshError
+from gearrom.fe.cache import FECache, as_cache, cache_key, read_arrays, write_arrays
 from gearrom.fe.elastic import ElasticBody2D, locate_on_chain
 from gearrom.fe.mesh2d import MeshSettings, gear_mesh
 
@@ -94,22 +94,26 @@ class FlankCompliance:
         return np.sqrt(2 * self.rb * self.sigma)
 
     def save(self, path: str | Path) -> Path:
-        """Write to NPZ (arrays) with the info dict as JSON."""
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_suffix(".tmp.npz")
-        np.savez(tmp, rb=self.rb, sigma=self.sigma, spacing=self.spacing, offsets=self.offsets, G=self.G,
-                 face_width=self.face_width, info=json.dumps(self.info), edge_radius=self.edge_radius, u_edge=self.u_edge)
-        tmp.replace(path)
-        return path
+        """Write to NPZ (arrays, the info dict as JSON) with a content digest, atomically
+        (:func:`gearrom.fe.cache.write_arrays`)."""
+        return write_arrays(path, {"rb": self.rb, "sigma": self.sigma, "spacing": self.spacing,
+                                   "offsets": self.offsets, "G": self.G, "face_width": self.face_width,
+                                   "info": json.dumps(self.info), "edge_radius": self.edge_radius,
+                                   "u_edge": self.u_edge})
 
     @classmethod
     def load(cls, path: str | Path) -> "FlankCompliance":
-        with np.load(path) as d:
-            return cls(rb=float(d["rb"]), sigma=d["sigma"], spacing=float(d["spacing"]), offsets=d["offsets"],
-                       G=d["G"], face_width=float(d["face_width"]), info=json.loads(str(d["info"])),
-                       edge_radius=float(d["edge_radius"]) if "edge_radius" in d else 0.0,
-                       u_edge=float(d["u_edge"]) if "u_edge" in d else math.inf)
+        """Read a file written by :meth:`save`.
+
+        Raises
+        ------
+        gearrom.fe.cache.CacheEntryError
+            The file is damaged or incomplete (:func:`gearrom.fe.cache.read_arrays`).
+        """
+        d = read_arrays(path)
+        return cls(rb=float(d["rb"]), sigma=d["sigma"], spacing=float(d["spacing"]), offsets=d["offsets"],
+                   G=d["G"], face_width=float(d["face_width"]), info=json.loads(str(d["info"])),
+                   edge_radius=float(d["edge_radius"]), u_edge=float(d["u_edge"]))
 
 
 def patch_operator(body: ElasticBody2D, edges: np.ndarray, node_coord: np.ndarray, to_coord, sigma: np.ndarray,
@@ -233,34 +237,46 @@ def compute_compliance(pair, i: int, settings: MeshSettings | None = None, spaci
 
 
 def gear_key(pair, i: int, settings: MeshSettings, spacing: float, offsets: int) -> str:
-    """Hash of everything that affects one gear's compliance (not torque, not micro-geometry)."""
+    """Hash of everything that affects one gear's compliance (not torque, not micro-geometry).
+
+    The key (:func:`gearrom.fe.cache.cache_key`) covers the gearrom version and
+    :data:`CODE_VERSION`, the pair's basic rack data, the gear's definition (teeth, shift, diameters,
+    bore, tool, tip edge, material) and its derived diameters, the mesh settings and the grid.
+    """
     from gearrom.fe.tipedge import tip_edge_radius
 
     g = pair.gears[i]
+    gear = {k: v for k, v in asdict(g).items() if k not in ("micro", "name")}
     data = {
-        "code": CODE_VERSION, "mn": pair.mn, "alpha_n": pair.alpha_n, "beta": pair.beta, "z": g.z, "x": g.x,
+        "mn": pair.mn, "alpha_n": pair.alpha_n, "beta": pair.beta, "gear": gear, "z": g.z, "x": g.x,
         "da": pair.da[i], "df": pair.df[i], "dff": pair.dff[i], "tool": [pair.tool_addendum[i], pair.tool_tip_radius[i],
         g.tool.protuberance, g.tool.protuberance_angle], "b": g.face_width, "bore": g.bore_diameter,
         "tip_edge_radius": tip_edge_radius(pair, i)[0], "edge_grid": EDGE_GRID_FRACTION,
         "E": g.material.youngs_modulus, "nu": g.material.poisson_ratio, "mesh": asdict(settings),
         "spacing": spacing, "offsets": offsets,
     }
-    return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()[:24]
+    return cache_key(CODE_VERSION, data)
 
 
 def cached_compliance(pair, i: int, settings: MeshSettings | None = None, spacing: float | None = None,
-                      offsets: int = 2, cache_dir: str | Path | None = None) -> FlankCompliance:
-    """:func:`compute_compliance` with a disk cache keyed by :func:`gear_key` (``cache_dir=None``: no cache)."""
+                      offsets: int = 2, cache_dir: str | Path | FECache | None = None) -> FlankCompliance:
+    """:func:`compute_compliance` with a disk cache keyed by :func:`gear_key`.
+
+    Parameters
+    ----------
+    cache_dir : str, Path, FECache or None
+        Cache directory (``None``: no cache). A damaged entry is reported, deleted and recomputed;
+        an unwritable directory is reported and the result returned without storing it
+        (:class:`gearrom.fe.cache.FECache`).
+    """
     s = settings or MeshSettings()
     spacing = spacing or s.flank_size
-    if cache_dir is None:
+    cache = as_cache(cache_dir)
+    if cache is None:
         return compute_compliance(pair, i, s, spacing, offsets)
-    path = Path(cache_dir) / f"flank2d-{gear_key(pair, i, s, spacing, offsets)}.npz"
-    if path.exists():
-        try:
-            return FlankCompliance.load(path)
-        except (OSError, ValueError, KeyError) as exc:
-            log.warning("ignoring unreadable cache file %s (%s)", path, exc)
-    fc = compute_compliance(pair, i, s, spacing, offsets)
-    fc.save(path)
+    name = f"flank2d-{gear_key(pair, i, s, spacing, offsets)}.npz"
+    fc = cache.fetch(name, FlankCompliance.load)
+    if fc is None:
+        fc = compute_compliance(pair, i, s, spacing, offsets)
+        cache.store(name, fc.save)
     return fc

@@ -22,7 +22,7 @@ any two teeth, ``C(tooth m, a -> tooth q, b) = B[q - m][a, b]`` (zero beyond ``o
 """
 from __future__ import annotations
 
-import hashlib
+import inspect
 import json
 import logging
 import math
@@ -34,6 +34,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from gearrom.errors import MeshError
+from gearrom.fe.cache import FECache, as_cache, cache_key, read_arrays, write_arrays
 from gearrom.fe.elastic3d import ElasticBody3D
 from gearrom.fe.halfspace import point_depth_kernel
 from gearrom.fe.mesh3d import Mesh3DSettings, sector_mesh
@@ -145,20 +146,27 @@ class FlankCompliance3D:
         return W
 
     def save(self, path: str | Path) -> Path:
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_suffix(".tmp.npz")
-        np.savez(tmp, **{k: getattr(self, k) for k in ("rb", "sigma", "zeta", "d_sigma", "d_zeta", "offsets", "G", "B",
-                                                        "depth", "youngs_modulus", "poisson_ratio", "face_width")},
-                 info=json.dumps(self.info))
-        tmp.replace(path)
-        return path
+        """Write to NPZ (arrays, the info dict as JSON) with a content digest, atomically
+        (:func:`gearrom.fe.cache.write_arrays`)."""
+        return write_arrays(path, {**{k: getattr(self, k) for k in _ARRAY_FIELDS}, "info": json.dumps(self.info)})
 
     @classmethod
     def load(cls, path: str | Path) -> "FlankCompliance3D":
-        with np.load(path) as d:
-            kw = {k: (float(d[k]) if d[k].ndim == 0 else d[k]) for k in d.files if k != "info"}
-            return cls(info=json.loads(str(d["info"])), **kw)
+        """Read a file written by :meth:`save`.
+
+        Raises
+        ------
+        gearrom.fe.cache.CacheEntryError
+            The file is damaged or incomplete (:func:`gearrom.fe.cache.read_arrays`).
+        """
+        d = read_arrays(path)
+        kw = {k: (float(d[k]) if d[k].ndim == 0 else d[k]) for k in _ARRAY_FIELDS}
+        return cls(info=json.loads(str(d["info"])), **kw)
+
+
+_ARRAY_FIELDS = ("rb", "sigma", "zeta", "d_sigma", "d_zeta", "offsets", "G", "B", "depth", "youngs_modulus",
+                 "poisson_ratio", "face_width")
+"""The fields of :class:`FlankCompliance3D` stored as arrays (the info dict is stored as JSON)."""
 
 
 def flank_range(pair, i: int) -> tuple[float, float]:
@@ -246,28 +254,46 @@ def compute_compliance3d(pair, i: int, settings: Mesh3DSettings | None = None, n
 
 
 def gear_key3d(pair, i: int, settings: Mesh3DSettings, **kw) -> str:
-    """Hash of everything that affects one gear's 3D compliance (not torque, not micro-geometry)."""
+    """Hash of everything that affects one gear's 3D compliance (not torque, not micro-geometry).
+
+    The key (:func:`gearrom.fe.cache.cache_key`) covers the gearrom version and
+    :data:`CODE_VERSION`, the pair's basic rack data, the gear's definition (teeth, shift, hand,
+    diameters, bore, tool, tip edge, material) and its derived diameters, the mesh settings and the
+    options of :func:`compute_compliance3d` (``kw`` merged over its defaults).
+    """
     g = pair.gears[i]
-    data = {"code": CODE_VERSION, "mn": pair.mn, "alpha_n": pair.alpha_n, "beta": pair.beta, "hand": g.hand, "z": g.z,
+    gear = {k: v for k, v in asdict(g).items() if k not in ("micro", "name")}
+    opts = {k: p.default for k, p in inspect.signature(compute_compliance3d).parameters.items()
+            if p.default is not inspect.Parameter.empty and k != "settings"}
+    opts.update(kw)
+    data = {"mn": pair.mn, "alpha_n": pair.alpha_n, "beta": pair.beta, "gear": gear, "hand": g.hand, "z": g.z,
             "x": g.x, "da": pair.da[i], "df": pair.df[i], "dff": pair.dff[i],
             "tool": [pair.tool_addendum[i], pair.tool_tip_radius[i], g.tool.protuberance, g.tool.protuberance_angle],
             "b": g.face_width, "bore": g.bore_diameter, "tip_edge_radius": g.tip_edge_radius,
-            "E": g.material.youngs_modulus, "nu": g.material.poisson_ratio, "mesh": asdict(settings), **kw}
-    return hashlib.sha256(json.dumps(data, sort_keys=True, default=str).encode()).hexdigest()[:24]
+            "E": g.material.youngs_modulus, "nu": g.material.poisson_ratio, "mesh": asdict(settings), "options": opts}
+    return cache_key(CODE_VERSION, data)
 
 
-def cached_compliance3d(pair, i: int, settings: Mesh3DSettings | None = None, cache_dir: str | Path | None = None,
-                        **kw) -> FlankCompliance3D:
-    """:func:`compute_compliance3d` with a disk cache keyed by :func:`gear_key3d` (``None``: no cache)."""
+def cached_compliance3d(pair, i: int, settings: Mesh3DSettings | None = None,
+                        cache_dir: str | Path | FECache | None = None, **kw) -> FlankCompliance3D:
+    """:func:`compute_compliance3d` with a disk cache keyed by :func:`gear_key3d`.
+
+    Parameters
+    ----------
+    cache_dir : str, Path, FECache or None
+        Cache directory (``None``: no cache). A damaged entry is reported, deleted and recomputed;
+        an unwritable directory is reported and the result returned without storing it
+        (:class:`gearrom.fe.cache.FECache`).
+    **kw
+        Options of :func:`compute_compliance3d`.
+    """
     s = settings or Mesh3DSettings()
-    if cache_dir is None:
+    cache = as_cache(cache_dir)
+    if cache is None:
         return compute_compliance3d(pair, i, s, **kw)
-    path = Path(cache_dir) / f"flank3d-{gear_key3d(pair, i, s, **kw)}.npz"
-    if path.exists():
-        try:
-            return FlankCompliance3D.load(path)
-        except (OSError, ValueError, KeyError, TypeError) as exc:
-            log.warning("ignoring unreadable cache file %s (%s)", path, exc)
-    fc = compute_compliance3d(pair, i, s, **kw)
-    fc.save(path)
+    name = f"flank3d-{gear_key3d(pair, i, s, **kw)}.npz"
+    fc = cache.fetch(name, FlankCompliance3D.load)
+    if fc is None:
+        fc = compute_compliance3d(pair, i, s, **kw)
+        cache.store(name, fc.save)
     return fc

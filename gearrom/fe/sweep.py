@@ -7,9 +7,10 @@ Typical use::
     res = stiffness_sweep(load_config("thesis-spur").pair, torques=[60, 120, 240], n_positions=64)
     res.to_excitation().save("spur.nc")
 
-The FE part (meshing, factorisation, influence coefficients) is cached on disk per gear, keyed by a
-hash of the gear geometry, material and mesh settings; torque and micro-geometry are not part of
-the key, so changing them re-runs only the contact solves (milliseconds per position).
+The FE part (meshing, factorisation, influence coefficients) is cached on disk per gear
+(:mod:`gearrom.fe.cache`), keyed by a hash of the gearrom version, the gear geometry, material and
+mesh settings; torque and micro-geometry are not part of the key, so changing them re-runs only the
+contact solves (milliseconds per position).
 """
 from __future__ import annotations
 
@@ -23,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from gearrom.fe.cache import FECache, as_cache
 from gearrom.fe.compliance import cached_compliance
 from gearrom.fe.ltca import SpurLTCA
 from gearrom.fe.mesh2d import MeshSettings
@@ -36,9 +38,9 @@ DEFINITION = ("secant k = F_t / (STE - STE_kinematic) per position; F_t = torque
 
 
 def default_cache_dir() -> Path:
-    """``$GEARROM_CACHE_DIR/fe`` (the CI sets it), else ``~/.cache/gearrom/fe``."""
+    """``$GEARROM_CACHE_DIR/fe`` (the CI sets it; ``~`` is expanded), else ``~/.cache/gearrom/fe``."""
     env = os.environ.get("GEARROM_CACHE_DIR")
-    return (Path(env) if env else Path.home() / ".cache" / "gearrom") / "fe"
+    return (Path(env).expanduser() if env else Path.home() / ".cache" / "gearrom") / "fe"
 
 
 @dataclass(frozen=True, eq=False)
@@ -231,11 +233,13 @@ def _loaded_span(pair_force: np.ndarray) -> np.ndarray:
     return mask
 
 
-def build_ltca(pair, settings: MeshSettings | None = None, cache_dir: str | Path | None | bool = True,
+def build_ltca(pair, settings: MeshSettings | None = None, cache_dir: str | Path | FECache | None | bool = True,
                window: float = 0.4e-3, n_slices: int = 24, helical_model: str = "3d", settings3d=None) -> SpurLTCA:
     """Compliances of both gears (cached) and the LTCA object.
 
-    ``cache_dir=True`` uses :func:`default_cache_dir`, ``None``/``False`` disables the cache.
+    ``cache_dir=True`` uses :func:`default_cache_dir`, ``None``/``False`` disables the cache. Both
+    gears share one :class:`gearrom.fe.cache.FECache`: a damaged entry is reported, deleted and
+    recomputed; an unwritable directory is reported once and the run continues without storing.
     Helical pairs: ``helical_model="3d"`` (default) gives :class:`gearrom.fe.helical3d.Helical3DLTCA`
     (3D FE compliances of each gear, mesh ``settings3d``: :class:`gearrom.fe.mesh3d.Mesh3DSettings`);
     ``"slices"`` the uncoupled transverse slices :class:`gearrom.fe.helical.HelicalSliceLTCA` (an
@@ -243,7 +247,7 @@ def build_ltca(pair, settings: MeshSettings | None = None, cache_dir: str | Path
     """
     if cache_dir is True:
         cache_dir = default_cache_dir()
-    cache = cache_dir or None
+    cache = as_cache(cache_dir)
     if pair.is_helical and helical_model not in ("3d", "slices"):
         from gearrom.errors import ModelError
 
@@ -318,7 +322,7 @@ def mesh_cycle(ltca: SpurLTCA, torques, n_positions: int = 64, mesh_index: int =
 
 
 def stiffness_sweep(pair, torques, n_positions: int = 64, settings: MeshSettings | None = None,
-                    cache_dir: str | Path | None | bool = True, **kw) -> StiffnessResult:
+                    cache_dir: str | Path | FECache | None | bool = True, **kw) -> StiffnessResult:
     """:func:`build_ltca` + :func:`mesh_cycle`."""
     return mesh_cycle(build_ltca(pair, settings, cache_dir), torques, n_positions, **kw)
 

@@ -1,0 +1,284 @@
+"""On-disk cache of FE results (flank influence coefficients), shared by the 2D and the 3D models.
+
+An entry is one NPZ file of named arrays, written by :func:`write_arrays` and read by
+:func:`read_arrays`:
+
+* its name carries a key (:func:`cache_key`) that hashes everything the entry depends on (the
+  gearrom version, the code revision of the model, gear geometry, material, mesh settings), so
+  that an entry is never found for inputs it was not computed from;
+* it holds a SHA-256 digest of its arrays (names, dtypes, shapes and bytes), checked on every read,
+  so that damage which still loads as valid arrays (a flipped bit in the data) is detected as well
+  as files that do not load at all (truncated, empty, broken ZIP structure);
+* it is written to a temporary file in the cache directory and moved into place with
+  :func:`os.replace`, so that a reader sees either the complete old entry, the complete new one or
+  none, never a partly written file, also with several processes sharing the directory.
+
+:class:`FECache` is the cache used by the models: a damaged entry is reported (one warning naming
+the file), deleted and recomputed; an unwritable directory is reported once (naming the directory
+and the reason) and the run continues without storing its results.
+"""
+from __future__ import annotations
+
+import errno
+import hashlib
+import json
+import logging
+import os
+import tempfile
+import warnings
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import TypeVar
+
+import numpy as np
+
+from gearrom.errors import GearromError
+
+log = logging.getLogger(__name__)
+
+T = TypeVar("T")
+
+CACHE_FORMAT = 2
+"""Layout of the cache entries (arrays plus the digest field); part of every key."""
+
+DIGEST_FIELD = "_content_sha256"
+"""Name of the array that holds the SHA-256 digest of the other arrays of an entry."""
+
+
+class CacheWarning(UserWarning):
+    """A cache entry was damaged, or the cache directory cannot be written; the run continues."""
+
+
+class CacheEntryError(GearromError, ValueError):
+    """A cache file cannot be read as a complete, intact entry (the message names the file)."""
+
+
+def _version() -> str:
+    """The installed gearrom version (``gearrom.__version__``)."""
+    from gearrom import __version__
+
+    return str(__version__)
+
+
+def cache_key(kind: str, data: Mapping) -> str:
+    """Hash of everything a cache entry depends on.
+
+    Parameters
+    ----------
+    kind : str
+        Model and code revision of the entry (for example ``"compliance-2d-v3"``).
+    data : mapping
+        The inputs of the entry (geometry, material, mesh settings...), JSON-serialisable; other
+        values are hashed through ``str``.
+
+    Returns
+    -------
+    str
+        24 hexadecimal characters of the SHA-256 of the canonical JSON of ``data`` together with
+        ``kind``, the gearrom version and :data:`CACHE_FORMAT`.
+    """
+    payload = {"kind": kind, "gearrom": _version(), "format": CACHE_FORMAT, "data": data}
+    return hashlib.sha256(json.dumps(payload, sort_keys=True, default=str).encode()).hexdigest()[:24]
+
+
+def content_digest(arrays: Mapping[str, np.ndarray]) -> str:
+    """SHA-256 (hexadecimal) of the names, dtypes, shapes and bytes of ``arrays`` in name order."""
+    h = hashlib.sha256()
+    for name in sorted(arrays):
+        a = np.ascontiguousarray(arrays[name])
+        h.update(json.dumps([name, a.dtype.str, list(a.shape)]).encode())
+        h.update(a.tobytes())
+    return h.hexdigest()
+
+
+def write_arrays(path: str | Path, arrays: Mapping[str, object]) -> Path:
+    """Write ``arrays`` and their :func:`content_digest` to the NPZ file ``path``, atomically.
+
+    The data go to a temporary file in the same directory, which is flushed to disk and then
+    renamed over ``path`` (:func:`os.replace`), so that ``path`` is never a partly written file.
+    Missing parent directories are created.
+
+    Parameters
+    ----------
+    path : str or Path
+        Target file.
+    arrays : mapping of str to array_like
+        The entry's arrays (no object arrays: entries are read without pickle). The name
+        :data:`DIGEST_FIELD` is reserved.
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    OSError
+        The directory cannot be created or written.
+    """
+    path = Path(path)
+    data = {k: np.asanyarray(v) for k, v in arrays.items() if k != DIGEST_FIELD}
+    data[DIGEST_FIELD] = np.array(content_digest(data))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            np.savez(f, **data)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+    return path
+
+
+def read_arrays(path: str | Path) -> dict[str, np.ndarray]:
+    """Read an entry written by :func:`write_arrays` and check its content digest.
+
+    Parameters
+    ----------
+    path : str or Path
+        The NPZ file.
+
+    Returns
+    -------
+    dict of str to ndarray
+        The arrays (without the digest).
+
+    Raises
+    ------
+    FileNotFoundError, PermissionError
+        The file does not exist or cannot be opened.
+    CacheEntryError
+        The file is not a complete, intact entry: it does not load (empty, truncated, broken
+        ZIP or array headers), has no digest, or its arrays do not match the digest.
+    """
+    path = Path(path)
+    try:
+        with np.load(path, allow_pickle=False) as d:
+            data = {k: d[k] for k in d.files}
+    except (FileNotFoundError, PermissionError, IsADirectoryError):
+        raise
+    except Exception as exc:  # noqa: BLE001  (every other failure to parse the file means damage)
+        raise CacheEntryError(f"{path}: does not load ({_one_line(exc)})") from exc
+    stored = data.pop(DIGEST_FIELD, None)
+    if stored is None:
+        raise CacheEntryError(f"{path}: no content digest (not written by gearrom.fe.cache.write_arrays)")
+    if str(stored) != content_digest(data):
+        raise CacheEntryError(f"{path}: content does not match its SHA-256 digest")
+    return data
+
+
+def _one_line(exc: BaseException) -> str:
+    """``Type: message`` of ``exc`` on one line."""
+    text = " ".join(str(exc).split())
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+
+
+class FECache:
+    """A directory of cache entries, with the recovery rules of the FE models.
+
+    Parameters
+    ----------
+    directory : str or Path
+        Cache directory (created on the first write).
+
+    Notes
+    -----
+    :meth:`fetch` returns an entry if it is intact; a damaged one is reported with one
+    :class:`CacheWarning` naming the file and deleted, and the caller recomputes it. :meth:`store`
+    writes an entry; if the directory cannot be written, one :class:`CacheWarning` names the
+    directory and the reason, and the cache stops writing (the caller keeps its result).
+    """
+
+    def __init__(self, directory: str | Path) -> None:
+        self.directory = Path(directory).expanduser()
+        self.writable = True
+
+    def __repr__(self) -> str:
+        return f"FECache({str(self.directory)!r})"
+
+    def path(self, name: str) -> Path:
+        """File of the entry ``name`` (a file name such as ``flank2d-<key>.npz``)."""
+        return self.directory / name
+
+    def fetch(self, name: str, load: Callable[[Path], T]) -> T | None:
+        """The entry ``name`` read by ``load`` (``path -> object``), or None if absent or damaged.
+
+        Any exception of ``load`` other than a missing file counts as damage: it is reported in one
+        :class:`CacheWarning` naming the file and the entry is deleted (if the directory allows it).
+        """
+        path = self.path(name)
+        try:
+            if not path.is_file():
+                return None
+        except OSError:
+            return None
+        try:
+            return load(path)
+        except FileNotFoundError:  # removed by another process since the check
+            return None
+        except PermissionError as exc:  # intact or not, this process cannot read it: leave it alone
+            warnings.warn(f"FE cache entry {path} cannot be read ({exc.strerror or exc}), recomputing it",
+                          CacheWarning, stacklevel=2)
+            return None
+        except Exception as exc:  # noqa: BLE001  (any failure to read an entry: recompute it)
+            reason = _one_line(exc.__cause__ or exc) if isinstance(exc, CacheEntryError) else _one_line(exc)
+            try:
+                path.unlink()
+                action = "deleted"
+            except FileNotFoundError:
+                action = "deleted"
+            except OSError as uexc:
+                action = f"could not be deleted ({uexc.strerror or uexc})"
+            warnings.warn(f"FE cache entry {path} is damaged and {action}, recomputing it: {reason}",
+                          CacheWarning, stacklevel=2)
+            return None
+
+    def store(self, name: str, save: Callable[[Path], object]) -> bool:
+        """Write the entry ``name`` with ``save`` (``path -> ...``, atomic, see :func:`write_arrays`).
+
+        Returns
+        -------
+        bool
+            True if written. False if the directory cannot be written: the first failure is reported
+            in one :class:`CacheWarning` naming the directory and the reason, and later calls do not
+            try again.
+        """
+        if not self.writable:
+            return False
+        try:
+            save(self.path(name))
+            return True
+        except OSError as exc:
+            self.writable = False
+            warnings.warn(f"FE cache directory {self.directory} cannot be written ({self._why(exc)}); "
+                          "running without the cache, results are not stored", CacheWarning, stacklevel=2)
+            return False
+
+    def _why(self, exc: OSError) -> str:
+        """Reason of a failed write, in words."""
+        d = self.directory
+        for p in (d, *d.parents):
+            if p.exists():
+                if not p.is_dir():
+                    return f"{p} is a file, not a directory"
+                break
+        if exc.errno in (errno.EACCES, errno.EPERM):
+            return "permission denied"
+        if exc.errno == errno.EROFS:
+            return "read-only file system"
+        if exc.errno == errno.ENOSPC:
+            return "no space left on the device"
+        return _one_line(exc)
+
+
+def as_cache(cache_dir: str | Path | FECache | None) -> FECache | None:
+    """``cache_dir`` as an :class:`FECache` (None, False or an empty string: no cache)."""
+    if cache_dir is None or cache_dir is False or cache_dir == "":
+        return None
+    return cache_dir if isinstance(cache_dir, FECache) else FECache(cache_dir)
