@@ -2,8 +2,15 @@
 
 A config is a TOML file whose keys carry their unit (``normal_module_mm``, ``torque_out_Nm``).
 Values are converted to SI here and nowhere else. ``extends = "thesis-helical"`` (a bundled
-name or a path relative to the file) merges another config underneath. Unknown keys, wrong
-types and non-positive sizes raise :class:`gearrom.errors.ConfigError` naming the file and key.
+name or a path relative to the file that holds it) merges another config underneath. Unknown
+keys, sections that are not tables, wrong types and values out of range raise
+:class:`gearrom.errors.ConfigError` naming the file and the key, with the value in the key's
+own unit.
+
+Relative paths never depend on the current directory: ``extends`` and path-valued keys
+(:data:`PATH_KEYS`) resolve against the directory of the file that contains them. A bare name
+without path separator and ``.toml`` suffix means the bundled config of that name unless a
+file (not a directory) of that name exists.
 
 The sections ``rig``, ``rom``, ``fe``, ``sweep``, ``signal`` and ``calibrate`` are kept as
 plain dictionaries for the stage that owns them to validate (``GearConfig.section``).
@@ -23,7 +30,7 @@ from pathlib import Path
 from typing import Any
 
 from gearrom.errors import ConfigError
-from gearrom.geometry.gear import Gear, MicroGeometry, Material, RackTool
+from gearrom.geometry.gear import MAX_TEETH, MIN_TEETH, Gear, MicroGeometry, Material, RackTool
 from gearrom.geometry.pair import GearPair
 
 MM, UM, DEG = 1e-3, 1e-6, math.pi / 180.0
@@ -82,6 +89,107 @@ TOP_KEYS = {"name": (str, None, "config name"), "description": (str, None, "free
             "extends": (str, None, "bundled name or relative path of a base config")}
 STAGE_SECTIONS = ("rig", "rom", "fe", "sweep", "signal", "calibrate", "validation")
 GEAR_SECTIONS = ("input_gear", "output_gear")
+GEAR_SUBSECTIONS = ("tool", "microgeometry", "material")
+
+#: (section, key) -> values that are keywords, not paths. Any other string value of such a key is
+#: a path; a relative one is made absolute against the directory of the file that holds it.
+PATH_KEYS: dict[tuple[str, str], tuple[str, ...]] = {("rom", "excitation"): ("analytical",)}
+
+#: Unit shown in messages, from the key's suffix (values are reported as written in the file).
+UNIT_SUFFIXES = (("_kg_per_m3", "kg/m^3"), ("_mm", "mm"), ("_um", "um"), ("_deg", "deg"), ("_GPa", "GPa"),
+                 ("_Nm", "N m"))
+
+
+@dataclass(frozen=True)
+class Limit:
+    """Allowed range of a numeric key, in the key's own unit (as written in the file).
+
+    Parameters
+    ----------
+    lo, hi : float or None
+        Bounds; ``None`` means unbounded on that side.
+    lo_closed, hi_closed : bool
+        Whether the bound itself is allowed.
+    why : str
+        Reason for the range, appended to the error message.
+    """
+
+    lo: float | None = None
+    hi: float | None = None
+    lo_closed: bool = False
+    hi_closed: bool = True
+    why: str = ""
+
+    def contains(self, value: float) -> bool:
+        """True when ``value`` lies in the range."""
+        if self.lo is not None and not (value >= self.lo if self.lo_closed else value > self.lo):
+            return False
+        return self.hi is None or (value <= self.hi if self.hi_closed else value < self.hi)
+
+    def describe(self) -> str:
+        """The range as text, e.g. ``"in (0, 45)"`` or ``"> 0"``."""
+        lo, hi = _num_text(self.lo), _num_text(self.hi)
+        if self.hi is None:
+            return f"{'>=' if self.lo_closed else '>'} {lo}"
+        if self.lo is None:
+            return f"{'<=' if self.hi_closed else '<'} {hi}"
+        return f"in {'[' if self.lo_closed else '('}{lo}, {hi}{']' if self.hi_closed else ')'}"
+
+
+_SIZE = Limit(0.0, 1e4, why="a size; more than 10 m is a unit mistake")
+_MODIFICATION = Limit(0.0, 1e4, lo_closed=True, why="a flank modification or error; more than 10 mm is a unit mistake")
+_DEVIATION = Limit(-1e4, 1e4, lo_closed=True, why="more than 10 mm is a unit mistake")
+#: key -> allowed range, in the key's unit. Keys of the same name share the range in every section.
+LIMITS: dict[str, Limit] = {
+    "normal_module_mm": Limit(0.0, 100.0, why="a module above 100 mm is a unit mistake (ISO 54 ends at 50 mm)"),
+    "normal_pressure_angle_deg": Limit(0.0, 45.0, hi_closed=False, why="involute basic rack"),
+    "helix_angle_deg": Limit(0.0, 60.0, lo_closed=True, hi_closed=False,
+                             why="the direction of the helix is given by 'hand'"),
+    "center_distance_mm": _SIZE,
+    "center_distance_tolerance_um": _MODIFICATION,
+    "min_tip_thickness_factor": Limit(0.0, 1.0, lo_closed=True, why="a fraction of the module"),
+    "youngs_modulus_GPa": Limit(0.0, 2000.0, why="stiffer than any engineering material above 2000 GPa"),
+    "poisson_ratio": Limit(-1.0, 0.5, hi_closed=False, why="stable isotropic elastic material"),
+    "density_kg_per_m3": Limit(0.0, 1e5, why="denser than any material above 1e5 kg/m^3"),
+    "teeth": Limit(MIN_TEETH, MAX_TEETH, lo_closed=True,
+                   why=f"fewer than {MIN_TEETH} teeth cannot mesh continuously; more than {MAX_TEETH} make the "
+                       "mesh period too short for the dynamic model to resolve"),
+    "profile_shift": Limit(-1.5, 2.0, hi_closed=False, why="beyond it the tooth is undercut away or pointed"),
+    "face_width_mm": _SIZE, "bore_diameter_mm": _SIZE, "tip_diameter_mm": _SIZE, "root_diameter_mm": _SIZE,
+    "root_form_diameter_mm": _SIZE,
+    "addendum_coefficient": Limit(0.0, 5.0, why="a multiple of the module"),
+    "dedendum_coefficient": Limit(0.0, 5.0, why="a multiple of the module"),
+    "tip_edge_radius_mm": Limit(0.0, 1e4, lo_closed=True, why="a size; more than 10 m is a unit mistake"),
+    "addendum_mm": _SIZE,
+    "tip_radius_mm": Limit(0.0, 1e4, lo_closed=True, why="a size; more than 10 m is a unit mistake"),
+    "protuberance_mm": Limit(0.0, 1e4, lo_closed=True, why="a size; more than 10 m is a unit mistake"),
+    "protuberance_angle_deg": Limit(0.0, 90.0, lo_closed=True, hi_closed=False, why="an angle to the tool flank"),
+    "tip_relief_um": _MODIFICATION, "profile_crowning_um": _MODIFICATION, "lead_crowning_um": _MODIFICATION,
+    "runout_um": _MODIFICATION,
+    "helix_slope_um": _DEVIATION, "profile_slope_um": _DEVIATION, "pitch_deviations_um": _DEVIATION,
+    "tip_relief_start_diameter_mm": _SIZE, "tip_form_diameter_mm": _SIZE,
+    "torque_out_Nm": Limit(0.0, None, why="load torque on the output shaft"),
+    "rpm_in": Limit(0.0, None, why="input speed"),
+}
+#: key -> allowed string values.
+CHOICES: dict[str, tuple[str, ...]] = {"hand": ("right", "left", "spur")}
+
+
+def _num_text(value: float | None) -> str:
+    """``value`` as written by a person: ``-18`` rather than ``-18.0``, full precision otherwise."""
+    if value is None:
+        return ""
+    if isinstance(value, float) and value.is_integer() and abs(value) < 1e15:
+        return str(int(value))
+    return repr(value)
+
+
+def unit_of(key: str) -> str:
+    """Unit of a config key from its suffix (``"mm"`` for ``face_width_mm``), ``""`` when dimensionless."""
+    for suffix, unit in UNIT_SUFFIXES:
+        if key.endswith(suffix):
+            return unit
+    return ""
 
 
 @dataclass(frozen=True)
@@ -157,60 +265,146 @@ def _merge(base: dict[str, Any], over: Mapping[str, Any]) -> dict[str, Any]:
     return out
 
 
-def resolve(name_or_path: str | Path, _seen: tuple[Path, ...] = ()) -> tuple[dict[str, Any], Path]:
-    """Read a config file (or bundled name) and apply ``extends`` recursively."""
-    path = Path(name_or_path)
-    if not path.exists():
-        if str(name_or_path) in bundled_names():
-            path = _bundled_path(str(name_or_path))
-        else:
-            raise ConfigError(
-                f"config {str(name_or_path)!r} is neither a file nor a bundled example "
-                f"(bundled: {', '.join(bundled_names())})"
-            )
-    path = path.resolve()
+def _not_found(ref: str, tried: str, referrer: Path | None) -> ConfigError:
+    where = f"{referrer}: extends = {ref!r}: " if referrer is not None else f"config {ref!r}: "
+    return ConfigError(f"{where}{tried} (bundled: {', '.join(bundled_names())})")
+
+
+def _unknown(ref: str) -> ConfigError:
+    return ConfigError(f"config {ref!r} is neither a file nor a bundled example (bundled: {', '.join(bundled_names())})")
+
+
+def _is_bare_name(ref: str) -> bool:
+    """A name without path separator and without ``.toml`` suffix (a bundled config name candidate)."""
+    return not any(sep in ref for sep in ("/", "\\")) and not ref.lower().endswith(".toml") and ref not in (".", "..")
+
+
+def _locate(ref: str | Path, referrer: Path | None = None) -> Path:
+    """The file meant by ``ref``: a command-line argument (``referrer`` None) or an ``extends`` value.
+
+    A relative ``extends`` is taken relative to the directory of ``referrer``, never the current
+    directory. A bare name means the file of that name when one exists (a directory never matches),
+    else the bundled config of that name.
+    """
+    text = str(ref)
+    if not text.strip():
+        where = f"{referrer}: extends" if referrer is not None else "config name"
+        raise ConfigError(f"{where} is empty: give a bundled name ({', '.join(bundled_names())}) or a TOML file path")
+    path = Path(text).expanduser()
+    if referrer is not None and not path.is_absolute():
+        path = referrer.parent / path
+    if path.is_file():
+        return path
+    if _is_bare_name(text) and text in bundled_names():
+        return _bundled_path(text)
+    bare = _is_bare_name(text)
+    if path.is_dir():
+        why = f"{path} is a directory, not a config file"
+        raise _not_found(text, why + (f", and {text!r} is no bundled config" if bare else ""), referrer)
+    if referrer is not None:
+        why = f"base config {path} does not exist"
+        raise _not_found(text, why + (" and is no bundled config" if bare else ""), referrer)
+    raise _unknown(text)
+
+
+def _anchor_paths(data: dict[str, Any], path: Path) -> None:
+    """Make the relative path-valued keys (:data:`PATH_KEYS`) of ``data`` absolute against ``path``'s directory."""
+    for (section, key), keywords in PATH_KEYS.items():
+        table = data.get(section)
+        if not isinstance(table, dict):
+            continue
+        value = table.get(key)
+        if isinstance(value, str) and value.strip() and value not in keywords:
+            target = Path(value).expanduser()
+            if not target.is_absolute():
+                table[key] = str(path.parent / target)
+
+
+def resolve(name_or_path: str | Path, _seen: tuple[Path, ...] = (), _referrer: Path | None = None
+            ) -> tuple[dict[str, Any], Path]:
+    """Read a config file (or bundled name) and apply ``extends`` recursively.
+
+    Parameters
+    ----------
+    name_or_path : str or Path
+        Bundled name or file path (relative to the current directory).
+
+    Returns
+    -------
+    data : dict
+        The merged content; relative path-valued keys (:data:`PATH_KEYS`) are made absolute
+        against the directory of the file that holds them.
+    path : Path
+        The absolute path of the file read.
+    """
+    path = _locate(name_or_path, _referrer).resolve()
     if path in _seen:
-        raise ConfigError(f"{path}: 'extends' forms a cycle ({' -> '.join(map(str, _seen))})")
+        raise ConfigError(f"{path}: 'extends' forms a cycle ({' -> '.join(map(str, (*_seen, path)))})")
     data = _read_toml(path)
+    _anchor_paths(data, path)
     base_ref = data.pop("extends", None)
     if base_ref is not None:
         if not isinstance(base_ref, str):
             raise ConfigError(f"{path}: key 'extends' must be a string, got {base_ref!r}")
-        candidate = path.parent / base_ref
-        base, _ = resolve(candidate if candidate.exists() else base_ref, _seen + (path,))
+        base, _ = resolve(base_ref, _seen + (path,), _referrer=path)
         base.pop("name", None)
         base.pop("description", None)
         data = _merge(base, data)
     return data, path
 
 
+def _check_number(value: Any, key: str, name: str, loc: str) -> None:
+    """Range check of one number as written in the file (message in the key's unit)."""
+    limit = LIMITS.get(key)
+    if limit is None or limit.contains(value):
+        return
+    unit = unit_of(key)
+    suffix = f" {unit}" if unit else ""
+    why = f" ({limit.why})" if limit.why else ""
+    raise ConfigError(f"{loc}{name} = {_num_text(value)}{suffix} is out of range: it must be "
+                      f"{limit.describe()}{suffix}{why}")
+
+
 def _convert(table: Mapping[str, Any], spec: Mapping[str, tuple], where: str, src: Path | None) -> dict[str, Any]:
-    """Check keys and types of ``table`` against ``spec`` and return SI values."""
+    """Check keys, types and ranges of ``table`` against ``spec`` and return SI values."""
     loc = f"{src}: " if src else ""
+    if not isinstance(table, Mapping):
+        raise ConfigError(f"{loc}[{where}] must be a table, got {table!r}")
     out: dict[str, Any] = {}
     for key, value in table.items():
         if key not in spec:
             hint = difflib.get_close_matches(key, list(spec), n=1)
             extra = f" (did you mean {hint[0]!r}?)" if hint else f" (known: {', '.join(spec)})"
-            raise ConfigError(f"{loc}unknown key '{where}.{key}'{extra}")
+            raise ConfigError(f"{loc}unknown key '{where + '.' if where else ''}{key}'{extra}")
         typ, factor, _ = spec[key]
-        name = f"{where}.{key}"
+        name = f"{where}.{key}" if where else key
+        unit = unit_of(key)
+        in_unit = f" of {unit}" if unit else ""
         if typ is bool:
             if not isinstance(value, bool):
                 raise ConfigError(f"{loc}{name} must be true or false, got {value!r}")
         elif typ is int:
             if not isinstance(value, int) or isinstance(value, bool):
                 raise ConfigError(f"{loc}{name} must be an integer, got {value!r}")
+            _check_number(value, key, name, loc)
         elif typ is float:
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-                raise ConfigError(f"{loc}{name} must be a finite number, got {value!r}")
+                raise ConfigError(f"{loc}{name} must be a finite number{in_unit}, got {value!r}")
+            _check_number(value, key, name, loc)
             value = float(value) * factor
         elif typ is list:
-            if not isinstance(value, list) or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value):
-                raise ConfigError(f"{loc}{name} must be a list of numbers, got {value!r}")
+            if not isinstance(value, list) or not all(
+                isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value
+            ):
+                raise ConfigError(f"{loc}{name} must be a list of finite numbers{in_unit}, got {value!r}")
+            for i, v in enumerate(value):
+                _check_number(v, key, f"{name}[{i}]", loc)
             value = tuple(float(v) * factor for v in value)
-        elif typ is str and not isinstance(value, str):
-            raise ConfigError(f"{loc}{name} must be a string, got {value!r}")
+        elif typ is str:
+            if not isinstance(value, str):
+                raise ConfigError(f"{loc}{name} must be a string, got {value!r}")
+            if key in CHOICES and value not in CHOICES[key]:
+                raise ConfigError(f"{loc}{name} must be one of {', '.join(map(repr, CHOICES[key]))}, got {value!r}")
         out[key] = value
     return out
 
@@ -226,15 +420,18 @@ def _material(table: Mapping[str, Any], where: str, src: Path | None, base: Mate
 
 
 def _gear(name: str, table: Mapping[str, Any], default_mat: Material, src: Path | None) -> Gear:
+    loc = f"{src}: " if src is not None else ""
+    if not isinstance(table, Mapping):
+        raise ConfigError(f"{loc}[{name}] must be a table, got {table!r}")
     table = dict(table)
-    sub = {k: table.pop(k, {}) for k in ("tool", "microgeometry", "material")}
+    sub = {k: table.pop(k, {}) for k in GEAR_SUBSECTIONS}
     for k, v in sub.items():
         if not isinstance(v, Mapping):
-            raise ConfigError(f"{src}: {name}.{k} must be a table, got {v!r}")
+            raise ConfigError(f"{loc}[{name}.{k}] must be a table, got {v!r}")
     v = _convert(table, GEAR_KEYS, name, src)
     for req in ("teeth", "face_width_mm", "bore_diameter_mm"):
         if req not in v:
-            raise ConfigError(f"{src}: missing key '{name}.{req}' ({GEAR_KEYS[req][2]})")
+            raise ConfigError(f"{loc}missing key '{name}.{req}' ({GEAR_KEYS[req][2]})")
     t = _convert(sub["tool"], TOOL_KEYS, f"{name}.tool", src)
     m = _convert(sub["microgeometry"], MICRO_KEYS, f"{name}.microgeometry", src)
     tool = RackTool(
@@ -267,19 +464,25 @@ def from_dict(data: Mapping[str, Any], source: Path | None = None, check: bool =
     from gearrom.errors import GearromError
     from gearrom.geometry.checks import check_pair
 
+    loc = f"{source}: " if source is not None else ""
     known = set(TOP_KEYS) | {"pair", "material", "operating"} | set(GEAR_SECTIONS) | set(STAGE_SECTIONS)
     for key in data:
         if key not in known:
             hint = difflib.get_close_matches(key, sorted(known), n=1)
-            raise ConfigError(f"{source}: unknown key or section '{key}'" + (f" (did you mean {hint[0]!r}?)" if hint else ""))
+            raise ConfigError(f"{loc}unknown key or section '{key}'" + (f" (did you mean {hint[0]!r}?)" if hint else ""))
     for sec in ("pair", *GEAR_SECTIONS):
         if sec not in data:
-            raise ConfigError(f"{source}: missing section [{sec}]")
+            raise ConfigError(f"{loc}missing section [{sec}]")
+    for sec in ("pair", "material", "operating", *GEAR_SECTIONS, *STAGE_SECTIONS):
+        # Stage sections are validated by their stage, but only a table can be handed to it.
+        if sec in data and not isinstance(data[sec], Mapping):
+            raise ConfigError(f"{loc}[{sec}] must be a table, got {data[sec]!r}")
+    _convert({k: v for k, v in data.items() if k in TOP_KEYS}, TOP_KEYS, "", source)
     try:
         p = _convert(data["pair"], PAIR_KEYS, "pair", source)
         for req in ("normal_module_mm", "normal_pressure_angle_deg"):
             if req not in p:
-                raise ConfigError(f"{source}: missing key 'pair.{req}' ({PAIR_KEYS[req][2]})")
+                raise ConfigError(f"{loc}missing key 'pair.{req}' ({PAIR_KEYS[req][2]})")
         mat = _material(data.get("material", {}), "material", source)
         gears = tuple(_gear(name, data[name], mat, source) for name in GEAR_SECTIONS)
         pair = GearPair(
@@ -294,9 +497,6 @@ def from_dict(data: Mapping[str, Any], source: Path | None = None, check: bool =
         if source is not None and not msg.startswith(str(source)):
             msg = f"{source}: {msg}"
         raise type(exc)(msg) from None
-    for key in ("torque_out_Nm", "rpm_in"):
-        if key in op and not op[key] > 0:
-            raise ConfigError(f"{source}: operating.{key} must be positive, got {op[key]!r}")
     caught: list[str] = []
     if check:
         with warnings.catch_warnings(record=True) as rec:
@@ -304,7 +504,7 @@ def from_dict(data: Mapping[str, Any], source: Path | None = None, check: bool =
             try:
                 check_pair(pair)
             except GearromError as exc:
-                raise type(exc)(f"{source}: {exc}" if source is not None else str(exc)) from None
+                raise type(exc)(f"{loc}{exc}") from None
         for w in rec:
             caught.append(str(w.message))
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)

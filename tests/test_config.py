@@ -75,9 +75,9 @@ def test_unknown_section(tmp_path):
 def test_wrong_type_and_sign(tmp_path):
     with pytest.raises(ConfigError, match=r"input_gear.teeth must be an integer, got '32'"):
         load_config(write(tmp_path, SPUR.replace("teeth = 32", 'teeth = "32"')))
-    with pytest.raises(ConfigError, match=r"input_gear.face_width_mm must be a positive"):
+    with pytest.raises(ConfigError, match=r"input_gear.face_width_mm = -18 mm is out of range: it must be in \(0, "):
         load_config(write(tmp_path, SPUR.replace("face_width_mm = 18.0\nbore_diameter_mm = 35.3", "face_width_mm = -18.0\nbore_diameter_mm = 35.3")))
-    with pytest.raises(ConfigError, match=r"operating.torque_out_Nm must be positive"):
+    with pytest.raises(ConfigError, match=r"operating.torque_out_Nm = 0 N m is out of range: it must be > 0 N m"):
         load_config(write(tmp_path, SPUR + "[operating]\ntorque_out_Nm = 0\n"))
 
 
@@ -124,3 +124,76 @@ def test_docs_list_every_key():
     for spec in (c.TOP_KEYS, c.PAIR_KEYS, c.MATERIAL_KEYS, c.GEAR_KEYS, c.TOOL_KEYS, c.MICRO_KEYS, c.OPERATING_KEYS):
         for key in spec:
             assert f"{key}`" in doc, key
+
+
+@pytest.mark.parametrize("line, shown", [
+    ("pair = 1.5", "[pair] must be a table, got 1.5"),
+    ("material = 5", "[material] must be a table, got 5"),
+    ("operating = 2", "[operating] must be a table, got 2"),
+    ("rig = 3", "[rig] must be a table, got 3"),
+    ("rom = [1, 2]", "[rom] must be a table, got [1, 2]"),
+    ("fe = 3", "[fe] must be a table, got 3"),
+    ('sweep = "fast"', "[sweep] must be a table, got 'fast'"),
+    ("signal = 1", "[signal] must be a table, got 1"),
+    ("calibrate = true", "[calibrate] must be a table, got True"),
+    ('input_gear = "big"', "[input_gear] must be a table, got 'big'"),
+])
+def test_section_written_as_plain_value_names_file_and_section(tmp_path, line, shown):
+    p = write(tmp_path, f'extends = "thesis-spur"\n{line}\n')
+    with pytest.raises(ConfigError) as info:
+        load_config(p)
+    assert str(info.value) == f"{p}: {shown}"
+
+
+@pytest.mark.parametrize("sub", ["tool", "microgeometry", "material"])
+def test_gear_subsection_written_as_plain_value(tmp_path, sub):
+    p = write(tmp_path, f'extends = "thesis-spur"\n[output_gear]\n{sub} = 4\n')
+    with pytest.raises(ConfigError, match=rf"c.toml: \[output_gear.{sub}\] must be a table, got 4"):
+        load_config(p)
+
+
+@pytest.mark.parametrize("teeth", ["1", "3", "4", "1001", "100000", "32.5", "-32"])
+def test_absurd_tooth_counts_rejected_at_load_with_range(tmp_path, teeth):
+    p = write(tmp_path, SPUR.replace("teeth = 41", f"teeth = {teeth}"))
+    with pytest.raises(ConfigError, match=r"c.toml: output_gear.teeth") as info:
+        load_config(p, check=False)
+    msg = str(info.value)
+    assert "must be an integer" in msg or ("[5, 1000]" in msg and "teeth" in msg.split("(")[-1])
+
+
+def test_values_reported_in_the_unit_of_the_key(tmp_path):
+    p = write(tmp_path, SPUR + "[material]\nyoungs_modulus_GPa = -210\n")
+    with pytest.raises(ConfigError, match=r"material.youngs_modulus_GPa = -210 GPa is out of range") as info:
+        load_config(p)
+    assert "e+11" not in str(info.value) and "210000000000" not in str(info.value)
+    p = write(tmp_path, SPUR.replace("bore_diameter_mm = 34.25", "bore_diameter_mm = 34.25\n[output_gear.microgeometry]\n"
+                                     "tip_relief_um = -8"))
+    with pytest.raises(ConfigError, match=r"output_gear.microgeometry.tip_relief_um = -8 um is out of range"):
+        load_config(p)
+
+
+def test_dataclass_messages_use_the_key_unit():
+    from gearrom.geometry.gear import Gear, Material
+
+    with pytest.raises(ConfigError, match=r"input_gear.face_width_mm must be a positive finite number, got -18 mm"):
+        Gear("input_gear", 20, face_width=-0.018, bore_diameter=0.01)
+    with pytest.raises(ConfigError, match=r"material.youngs_modulus_GPa must be positive, got -210$"):
+        Material(youngs_modulus=-210e9)
+
+
+@pytest.mark.parametrize("text, pattern", [
+    ('name = 5', r"name must be a string, got 5"),
+    ('description = ["a"]', r"description must be a string"),
+    ('[input_gear]\nhand = "up"', r"input_gear.hand must be one of 'right', 'left', 'spur', got 'up'"),
+    ('[input_gear.microgeometry]\npitch_deviations_um = [1.0, nan]', r"pitch_deviations_um must be a list of finite"),
+    ('[pair]\nnormal_pressure_angle_deg = 90', r"pair.normal_pressure_angle_deg = 90 deg is out of range: it must be in \(0, 45\) deg"),
+])
+def test_type_and_range_errors_name_the_key(tmp_path, text, pattern):
+    with pytest.raises(ConfigError, match=pattern):
+        load_config(write(tmp_path, f'extends = "thesis-spur"\n{text}\n'))
+
+
+@pytest.mark.parametrize("name", ["", "   "])
+def test_empty_config_name_is_an_error(name):
+    with pytest.raises(ConfigError, match=r"config name is empty: give a bundled name \(.*thesis-spur"):
+        load_config(name)

@@ -13,11 +13,20 @@ from gearrom.errors import ConfigError
 
 Hand = Literal["right", "left", "spur"]
 
+#: Fewest teeth accepted: below it no standard basic rack gives a contact ratio of 1 without undercut.
+MIN_TEETH = 5
+#: Most teeth accepted: beyond it the mesh frequency z n / 60 at rig speeds exceeds what the dynamic
+#: model's time step resolves, and the gear's inertia dwarfs the rest of the drivetrain.
+MAX_TEETH = 1000
+
 
 def _positive(owner: str, **values: float | None) -> None:
+    """Raise when a length (keyword ``NAME_mm``, value in m) is not positive; the message shows mm."""
     for name, value in values.items():
         if value is not None and not (value > 0 and math.isfinite(value)):
-            raise ConfigError(f"{owner}.{name} must be a positive finite number, got {value!r}")
+            shown = value * 1e3 if name.endswith("_mm") else value
+            unit = " mm" if name.endswith("_mm") else ""
+            raise ConfigError(f"{owner}.{name} must be a positive finite number, got {shown:g}{unit}")
 
 
 @dataclass(frozen=True)
@@ -39,7 +48,9 @@ class Material:
     density: float = 7850.0
 
     def __post_init__(self) -> None:
-        _positive("material", youngs_modulus=self.youngs_modulus, density=self.density)
+        if not (self.youngs_modulus > 0 and math.isfinite(self.youngs_modulus)):
+            raise ConfigError(f"material.youngs_modulus_GPa must be positive, got {self.youngs_modulus / 1e9:g}")
+        _positive("material", density_kg_per_m3=self.density)
         if not -1.0 < self.poisson_ratio < 0.5:
             raise ConfigError(f"material.poisson_ratio must lie in (-1, 0.5), got {self.poisson_ratio!r}")
 
@@ -74,9 +85,9 @@ class RackTool:
     def __post_init__(self) -> None:
         _positive("tool", addendum_mm=self.addendum)
         if self.tip_radius is not None and not (self.tip_radius >= 0 and math.isfinite(self.tip_radius)):
-            raise ConfigError(f"tool.tip_radius_mm must be >= 0, got {self.tip_radius!r}")
-        if self.protuberance < 0:
-            raise ConfigError(f"tool.protuberance_mm must be >= 0, got {self.protuberance!r}")
+            raise ConfigError(f"tool.tip_radius_mm must be >= 0, got {self.tip_radius * 1e3:g} mm")
+        if not (self.protuberance >= 0 and math.isfinite(self.protuberance)):
+            raise ConfigError(f"tool.protuberance_mm must be >= 0, got {self.protuberance * 1e3:g} mm")
 
 
 @dataclass(frozen=True)
@@ -125,7 +136,7 @@ class MicroGeometry:
         for name in ("tip_relief", "profile_crowning", "lead_crowning", "runout"):
             value = getattr(self, name)
             if value < 0 or not math.isfinite(value):
-                raise ConfigError(f"microgeometry.{name}_um must be >= 0, got {value * 1e6!r}")
+                raise ConfigError(f"microgeometry.{name}_um must be >= 0, got {value * 1e6:g} um")
         if self.tip_relief > 0 and self.tip_relief_start_diameter is None:
             raise ConfigError("microgeometry.tip_relief_start_diameter_mm is required when tip_relief_um > 0")
 
@@ -183,8 +194,8 @@ class Gear:
 
     def __post_init__(self) -> None:
         owner = self.name
-        if not isinstance(self.z, int) or isinstance(self.z, bool) or self.z < 5:
-            raise ConfigError(f"{owner}.teeth must be an integer >= 5, got {self.z!r}")
+        if not isinstance(self.z, int) or isinstance(self.z, bool) or not MIN_TEETH <= self.z <= MAX_TEETH:
+            raise ConfigError(f"{owner}.teeth must be an integer in [{MIN_TEETH}, {MAX_TEETH}], got {self.z!r}")
         _positive(
             owner,
             face_width_mm=self.face_width,

@@ -82,7 +82,7 @@ def test_tip_relief_start_outside_active_profile():
     [
         ("face_width", dict(face_width=0.0), r"input_gear.face_width_mm must be a positive"),
         ("bore", dict(bore_diameter=-1 * MM), r"input_gear.bore_diameter_mm must be a positive"),
-        ("teeth", dict(), r"input_gear.teeth must be an integer >= 5, got 3"),
+        ("teeth", dict(), r"input_gear.teeth must be an integer in \[5, 1000\], got 3"),
     ],
 )
 def test_non_positive_sizes(field, kwargs, pattern):
