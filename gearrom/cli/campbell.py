@@ -23,8 +23,28 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                         help="list crossings of modes with at least this mesh energy share (default 0.01)")
 
 
+#: Highest ``--fmax`` accepted, Hz.
+FMAX_LIMIT_HZ = 1e6
+
+
+def check_args(args: argparse.Namespace) -> None:
+    """Check the options before the model is built (one-line errors naming the option)."""
+    from gearrom.cli._args import PLOT_SUFFIXES, check_number, check_output, check_rpm_spec
+
+    check_number("--fmax", args.fmax, gt=0, le=FMAX_LIMIT_HZ, unit="Hz")
+    check_number("--min-share", args.min_share, ge=0, le=1)
+    check_rpm_spec("--rpm", args.rpm)
+    args.json = check_output("--json", args.json, what="JSON file")
+    args.plot = check_output("--plot", args.plot, PLOT_SUFFIXES, what="figure")
+
+
 def run(args: argparse.Namespace) -> int:
+    """Modes and Campbell diagram; options checked first, the JSON written before the figure."""
     import numpy as np
+
+    from gearrom.cli._args import prepare_output
+
+    check_args(args)
 
     from gearrom.rom.modal import campbell, modal_analysis
     from gearrom.rom.rig import build_rig
@@ -43,14 +63,12 @@ def run(args: argparse.Namespace) -> int:
     modes = modal_analysis(model, float(rpm[0]), fmax=res.freqs.max() * 1.001)
     out = {**res.to_json(), "modes": modes.table()}
     if args.json:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps(out, indent=1) + "\n")
+        prepare_output(args.json).write_text(json.dumps(out, indent=1) + "\n")
     if args.plot:
         import matplotlib.pyplot as plt
 
-        args.plot.parent.mkdir(parents=True, exist_ok=True)
         fig = res.plot(args.fmax)
-        fig.savefig(args.plot, dpi=120)
+        fig.savefig(prepare_output(args.plot), dpi=120)
         plt.close(fig)
     lines = [f"campbell {cfg.name}: {len(modes.freqs)} modes below {res.freqs.max():.0f} Hz at {rpm[0]:.0f} rpm",
              f"  {'mode':>4s} {'f [Hz]':>9s} {'zeta':>6s} {'mesh E':>7s}  dominant DOFs"]

@@ -34,22 +34,63 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                              "modification, the FE cache is built once per gear) or the analytical thin slices")
     parser.add_argument("--rpm-tolerance", type=float, default=0.05,
                         help="allowed relative mismatch of rpm_in and the data (default 0.05)")
+    parser.add_argument("--allow-outside-data", action="store_true",
+                        help="read data files outside their measurement JSON's folder (refused by default)")
+
+
+#: Largest ``--max-effects`` accepted (the library has fewer effects; a larger count changes nothing).
+MAX_EFFECTS_LIMIT = 64
+#: Largest ``--torque-out-Nm`` magnitude accepted, N m.
+TORQUE_LIMIT_NM = 1e7
+
+
+def check_args(args: argparse.Namespace) -> tuple[str, ...] | None:
+    """Check the options and the measurement files' metadata before the (minutes long) diagnosis.
+
+    Returns the effect names of ``--effects`` (None: the whole library).
+    """
+    from gearrom.calibrate import check_name
+    from gearrom.cli._args import check_number, check_output, check_output_dir
+    from gearrom.errors import CalibrationError, ConfigError
+    from gearrom.signal import read_meta
+
+    check_number("--torque-out-Nm", args.torque_out_Nm, ge=-TORQUE_LIMIT_NM, le=TORQUE_LIMIT_NM, unit="N m")
+    check_number("--max-effects", args.max_effects, ge=0, le=MAX_EFFECTS_LIMIT, integer=True)
+    check_number("--rpm-tolerance", args.rpm_tolerance, gt=0, le=1)
+    args.json_out = check_output("--json", args.json_out, stdout=True, what="JSON file")
+    args.report = check_output_dir("--report", args.report)
+    args.save = check_output("--save", args.save, what="result file")
+    names = None
+    if args.effects is not None:
+        names = tuple(x.strip() for x in args.effects.split(",") if x.strip())
+        if not names:
+            raise ConfigError(f"--effects={args.effects!r}: names no effect")
+        for n in names:
+            try:
+                check_name(n)
+            except CalibrationError as exc:
+                raise CalibrationError(f"--effects={args.effects!r}: {exc}") from None
+    for path in args.measurements:
+        meta = read_meta(path)
+        if meta.torque_out_Nm is None and args.torque_out_Nm is None:
+            raise CalibrationError(f"{path}: 'torque_out_Nm' is missing in the measurement and was not given "
+                                   "(--torque-out-Nm)")
+    return names
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run the diagnosis and write the requested outputs."""
-    from gearrom.calibrate import FitSettings, check_name, diagnose
+    """Run the diagnosis and write the requested outputs.
+
+    Everything that can be checked is checked before the diagnosis starts; afterwards the report
+    JSON (the expensive result, plain text) is written first, missing folders are created, and
+    the figures come last.
+    """
+    from gearrom.calibrate import FitSettings, diagnose
     from gearrom.calibrate.simulator import default_simulator
-    from gearrom.errors import CalibrationError
+    from gearrom.cli._args import prepare_output
     from gearrom.signal import ReadSettings
 
-    names = None
-    if args.effects:
-        names = tuple(x.strip() for x in args.effects.split(",") if x.strip())
-        for n in names:
-            check_name(n)
-    if args.max_effects < 0:
-        raise CalibrationError(f"--max-effects={args.max_effects} must be >= 0")
+    names = check_args(args)
     settings = FitSettings(max_effects=args.max_effects, candidates=names, shared_shaft_phase=args.shared_phase and not args.per_run_phase)
     sim = default_simulator(args.config, prefer=args.simulator)
     micro = None
@@ -58,16 +99,17 @@ def run(args: argparse.Namespace) -> int:
 
         micro = SliceMicroModel()
         sim.micro_model = micro  # the re-simulations use the same micro-geometry model as the fits
+    read_settings = ReadSettings(rpm_tolerance=args.rpm_tolerance, allow_outside_data=args.allow_outside_data)
     res = diagnose(args.config, args.measurements, simulator=sim, settings=settings, micro_model=micro,
-                   read_settings=ReadSettings(rpm_tolerance=args.rpm_tolerance), torque_out_Nm=args.torque_out_Nm)
+                   read_settings=read_settings, torque_out_Nm=args.torque_out_Nm)
     if args.json_out == "-":
         sys.stdout.write(res.to_json())
-    else:
-        if args.json_out:
-            Path(args.json_out).write_text(res.to_json())
+    elif args.json_out:
+        prepare_output(args.json_out).write_text(res.to_json())
+    if args.save:
+        res.save(prepare_output(args.save))
+    if args.json_out != "-":
         sys.stdout.write(res.text())
     if args.report:
         res.write_report(args.report)
-    if args.save:
-        res.save(args.save)
     return 0

@@ -33,12 +33,29 @@ def add_args(parser) -> None:
     parser.add_argument("--cache-dir", type=Path, help="FE cache directory (default $GEARROM_CACHE_DIR/fe or ~/.cache/gearrom/fe)")
 
 
+def check_args(args) -> None:
+    """Check the options before the FE model is built (one-line errors naming the option)."""
+    from gearrom.cli._args import PLOT_SUFFIXES, check_number, check_output, check_output_dir
+
+    for t in args.torque or ():
+        check_number("--torque-Nm", t, gt=0, le=1e7, unit="N m")
+    check_number("--positions", args.positions, ge=4, le=4096, integer=True)
+    # below 0.1 the meshes outgrow memory and hours of solving; above 10 nothing of a tooth is left
+    check_number("--mesh-factor", args.mesh_factor, ge=0.1, le=10)
+    for opt, dest, suffixes in (("--json", "json", None), ("--plot", "plot", PLOT_SUFFIXES),
+                                ("--pattern", "pattern", PLOT_SUFFIXES), ("--save", "save", None),
+                                ("--vtu", "vtu", None), ("--inp", "inp", None)):
+        setattr(args, dest, check_output(opt, getattr(args, dest), suffixes))
+    args.cache_dir = check_output_dir("--cache-dir", args.cache_dir)
+
+
 def run(args) -> int:
     from gearrom.config import load_config
     from gearrom.fe.iso6336 import mesh_stiffness
     from gearrom.fe.mesh2d import settings_from_section
     from gearrom.fe.sweep import build_ltca, mesh_cycle
 
+    check_args(args)
     cfg = load_config(args.config)
     settings, extra = settings_from_section(cfg.section("fe"), str(cfg.source or cfg.name))
     if args.mesh_factor <= 0:
@@ -86,6 +103,7 @@ def run(args) -> int:
         args.pattern.parent.mkdir(parents=True, exist_ok=True)
         res.plot_pattern(j0).savefig(args.pattern, dpi=120)
     if args.save:
+        args.save.parent.mkdir(parents=True, exist_ok=True)
         res.to_excitation().save(args.save)
     if args.vtu or args.inp:
         from gearrom.fe.export import export_inp, export_vtu

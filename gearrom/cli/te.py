@@ -36,29 +36,97 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     r.add_argument("--rpm-tolerance", type=float, help="allowed relative mismatch of rpm_in and the data (default 0.05)")
     r.add_argument("--strict", action="store_true", help="fail on anything that would need a repair")
     r.add_argument("--edge-interp", choices=("cubic", "linear"), help="angle between encoder edges (default cubic)")
+    r.add_argument("--allow-outside-data", action="store_true",
+                   help="read a data file outside the measurement JSON's folder (refused by default)")
+
+
+#: ``[signal]`` key -> the option that overrides it (errors caused by an option name the option).
+OPTION_KEYS = {"te_on": "--te-on", "lowpass_hz": "--lowpass-hz", "lowpass_order": "--lowpass-order",
+               "highpass_hz": "--highpass-hz", "zero_phase": "--causal", "detrend": "--detrend",
+               "grid_fs_hz": "--fs-hz", "rpm_tolerance": "--rpm-tolerance", "strict": "--strict",
+               "edge_interp": "--edge-interp"}
+#: Highest grid rate accepted, Hz: above any encoder counter clock, so a finer grid resolves nothing.
+FS_LIMIT_HZ = 1e9
+
+
+def check_args(args: argparse.Namespace) -> None:
+    """Check every option before anything is read or computed (one-line errors naming the option)."""
+    from gearrom.cli._args import PLOT_SUFFIXES, check_number, check_output
+
+    check_number("--lowpass-hz", args.lowpass_hz, gt=0, unit="Hz", key="lowpass_hz")
+    check_number("--lowpass-order", args.lowpass_order, ge=1, le=12, integer=True, key="lowpass_order")
+    check_number("--highpass-hz", args.highpass_hz, gt=0, unit="Hz", key="highpass_hz")
+    check_number("--fs-hz", args.fs_hz, gt=0, le=FS_LIMIT_HZ, unit="Hz", key="grid_fs_hz")
+    check_number("--rpm-tolerance", args.rpm_tolerance, gt=0, le=1, key="rpm_tolerance")
+    args.json_out = check_output("--json", args.json_out, stdout=True, what="JSON file")
+    args.plot = check_output("--plot", args.plot, PLOT_SUFFIXES, what="figure")
+    args.save = check_output("--save", args.save, what="result file")
+
+
+def _check_rates(args: argparse.Namespace, meta, read_settings, te_settings, config: str) -> None:
+    """Grid rate and filter cut-offs against the record (metadata only, before the data are read)."""
+    from gearrom.errors import ConfigError
+    from gearrom.signal.angles import auto_fs
+
+    def source(key: str, opt_value) -> str:
+        return f"{OPTION_KEYS[key]}={opt_value!r}" if opt_value is not None else f"{config} [signal] {key}"
+
+    if meta.kind != "edges":
+        return
+    fs = auto_fs(meta, read_settings)
+    if meta.clock_hz is not None and fs > meta.clock_hz:
+        raise ConfigError(f"{source('grid_fs_hz', args.fs_hz)}: grid rate {fs:g} Hz above the time-stamp clock "
+                          f"clock_hz={meta.clock_hz:g} Hz of {meta.path}: a finer grid resolves nothing")
+    f = te_settings.filters
+    for key, fc, opt in (("lowpass_hz", f.lowpass_hz, args.lowpass_hz), ("highpass_hz", f.highpass_hz, args.highpass_hz)):
+        if fc is not None and not fc < fs / 2:
+            raise ConfigError(f"{source(key, opt)}: cut-off {fc:g} Hz must lie below the Nyquist frequency "
+                              f"{fs / 2:g} Hz of the {fs:g} Hz time grid")
 
 
 def run(args: argparse.Namespace) -> int:
-    """Process the measurement and write the requested outputs."""
+    """Process the measurement and write the requested outputs.
+
+    The options are checked first; the summary JSON, the most robust output, is written before the
+    result file and the figure.
+    """
+    import dataclasses
+
+    from gearrom.cli._args import prepare_output
+    from gearrom.errors import ConfigError
     from gearrom.signal import compute_te, load_angles, read_meta
     from gearrom.signal.config import settings_from_config
     from gearrom.signal.te import DEFAULT_CONFIG, GearMeshInfo
 
+    check_args(args)
+    if args.config is not None:
+        from gearrom.config import load_config
+
+        try:
+            load_config(args.config, check=False)
+        except ConfigError as exc:
+            raise ConfigError(f"--config={args.config!r}: {exc}") from None
     meta = read_meta(args.measurement)
     config = args.config or meta.config or DEFAULT_CONFIG
     overrides = {"te_on": args.te_on, "lowpass_hz": args.lowpass_hz, "lowpass_order": args.lowpass_order,
                  "highpass_hz": args.highpass_hz, "zero_phase": False if args.causal else None,
                  "detrend": args.detrend, "grid_fs_hz": args.fs_hz, "rpm_tolerance": args.rpm_tolerance,
                  "strict": True if args.strict else None, "edge_interp": args.edge_interp}
-    te_settings, read_settings = settings_from_config(config, overrides)
-    res = compute_te(load_angles(meta, read_settings), GearMeshInfo.from_config(config), te_settings)
+    te_settings, read_settings = settings_from_config(config, overrides, OPTION_KEYS)
+    if args.allow_outside_data:
+        read_settings = dataclasses.replace(read_settings, allow_outside_data=True)
+    mesh = GearMeshInfo.from_config(config)
+    _check_rates(args, meta, read_settings, te_settings, str(config))
+    res = compute_te(load_angles(meta, read_settings), mesh, te_settings)
     summary = res.to_json_dict()
     text = json.dumps(summary, indent=2) + "\n"
     if args.json_out == "-":
         sys.stdout.write(text)
-    else:
-        if args.json_out:
-            Path(args.json_out).write_text(text)
+    elif args.json_out:
+        prepare_output(args.json_out).write_text(text)
+    if args.save:
+        res.save(prepare_output(args.save))
+    if args.json_out != "-":
         amp = ", ".join(f"{a:.3g}" for a in summary["gmf_amplitude_um"])
         sys.stdout.write(f"{args.measurement}: {summary['rpm_in']:.1f} rpm, TE ({summary['te_on']}) rms "
                          f"{summary['te_rms_um']:.3g} um, ptp {summary['te_ptp_um']:.3g} um, GMF "
@@ -67,7 +135,9 @@ def run(args: argparse.Namespace) -> int:
             sys.stdout.write(f"  repair: {rep['where']}, channel {rep['channel']!r}, t={rep['t_s']:.9g} s: "
                              f"{rep['kind']}: {rep['detail']}\n")
     if args.plot:
-        res.plot().savefig(args.plot, dpi=120)
-    if args.save:
-        res.save(args.save)
+        import matplotlib.pyplot as plt
+
+        fig = res.plot()
+        fig.savefig(prepare_output(args.plot), dpi=120)
+        plt.close(fig)
     return 0

@@ -6,8 +6,6 @@ import logging
 import sys
 from pathlib import Path
 
-from gearrom.errors import ConfigError
-
 NAME = "validate"
 HELP = ("compare the reduced model with the stored (or freshly run) explicit FE: DTE RMS, GMF 1-3 amplitude/phase "
         "(exit 1 if a speed misses the tolerances)")
@@ -45,11 +43,30 @@ def add_args(parser) -> None:
                              "records; 0.01 for one-point records, whose hourglass viscosity dissipates)")
 
 
+#: Highest input speed accepted, rpm.
+RPM_LIMIT = 1e5
+#: Highest ROM mesh damping ratio accepted (ten times critical).
+DAMPING_LIMIT = 10.0
+
+
+def check_args(args) -> None:
+    """Check the options before the ROM and FE run (one-line errors naming the option)."""
+    from gearrom.cli._args import PLOT_SUFFIXES, check_input_dir, check_number, check_output
+
+    for r in args.rpm:
+        check_number("--rpm", r, gt=0, le=RPM_LIMIT, unit="rpm")
+    check_number("--damping-ratio", args.damping_ratio, ge=0, le=DAMPING_LIMIT)
+    args.json = check_output("--json", args.json, what="JSON file")
+    args.plot = check_output("--plot", args.plot, PLOT_SUFFIXES, what="figure")
+    args.fe_dir = check_input_dir("--fe-dir", args.fe_dir)
+
+
 def run(args) -> int:
+    """Compare ROM and FE; options checked first, the JSON report written before the figure."""
+    from gearrom.cli._args import prepare_output
     from gearrom.validation.report import validate
 
-    if args.damping_ratio is not None and not args.damping_ratio >= 0:
-        raise ConfigError(f"--damping-ratio must be >= 0, got {args.damping_ratio}")
+    check_args(args)
     rep = validate(args.config, args.rpm, fe_dir=args.fe_dir, fresh=args.fresh, excitation_source=args.excitation,
                    damping_ratio=args.damping_ratio, facets=not args.no_facets, table=args.table,
                    rom_model=args.rom, fe_integration=args.fe_integration)
@@ -58,8 +75,7 @@ def run(args) -> int:
         rep.save(args.json)
     if args.plot:
         fig = rep.plot()
-        args.plot.parent.mkdir(parents=True, exist_ok=True)
-        fig.savefig(args.plot, dpi=120)
+        fig.savefig(prepare_output(args.plot), dpi=120)
     lines = [f"{out['config']}: pair ROM vs explicit FE"]
     for s in out["speeds"]:
         lines.append(f"  {s['rpm_in']:g} rpm (FE {s['fe_source']}): {'PASS' if s['passed'] else 'FAIL'}")

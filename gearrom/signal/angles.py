@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from gearrom.errors import MeasurementError
-from gearrom.signal.edges import EdgeStream, ReadSettings, Repair
+from gearrom.signal.edges import EdgeStream, ReadSettings, Repair, check_time_resolution
 from gearrom.signal.measurement import CHANNELS, MeasurementMeta, read_meta
 from gearrom.signal.readers import AngleChunk, EdgeChunk, first_bad, fmt_t, iter_chunks, row_label
 
@@ -93,7 +93,7 @@ def _load_edges(meta: MeasurementMeta, settings: ReadSettings) -> AngleData:
     fs = auto_fs(meta, settings)
     file, label = str(meta.data_path), row_label(meta)
     streams = {ch: EdgeStream(ch, meta.encoders[ch].edges_per_rev, fs, file, label, settings) for ch in CHANNELS}
-    for chunk in iter_chunks(meta, settings.chunk_rows):
+    for chunk in iter_chunks(meta, settings.chunk_rows, allow_outside_data=settings.allow_outside_data):
         assert isinstance(chunk, EdgeChunk)
         streams[chunk.channel].feed(chunk)
     res = {ch: s.finish() for ch, s in streams.items()}
@@ -122,7 +122,7 @@ def _span(s: EdgeStream) -> str:
 
 def _load_angle_rows(meta: MeasurementMeta, settings: ReadSettings) -> AngleData:
     file, label = str(meta.data_path), row_label(meta)
-    parts: list[AngleChunk] = [c for c in iter_chunks(meta, settings.chunk_rows)]  # type: ignore[misc]
+    parts: list[AngleChunk] = [c for c in iter_chunks(meta, settings.chunk_rows, allow_outside_data=settings.allow_outside_data)]  # type: ignore[misc]
     if not parts or sum(p.t.size for p in parts) < 16:
         raise MeasurementError(f"{file}: fewer than 16 data rows")
     t = np.concatenate([p.t for p in parts])
@@ -151,6 +151,7 @@ def _load_angle_rows(meta: MeasurementMeta, settings: ReadSettings) -> AngleData
                                    "direction of rotation")
         th[ch] = th[ch] - th[ch][0]
     med = float(np.median(dt))
+    check_time_resolution(float(t[0]), float(t[-1]), med, f"{file}: column 't_s'")
     fs = float(settings.fs_hz) if settings.fs_hz is not None else 1.0 / med
     repairs = []
     gaps = np.flatnonzero(dt > settings.gap_ratio * med)
@@ -170,7 +171,13 @@ def _load_angle_rows(meta: MeasurementMeta, settings: ReadSettings) -> AngleData
         tg, th_in, th_out = t, th["input"], th["output"]
         fs = 1.0 / float(np.mean(dt))
     else:
-        tg = np.arange(math.ceil(t[0] * fs), math.floor(t[-1] * fs) + 1) / fs
+        k0, k1 = math.ceil(t[0] * fs), math.floor(t[-1] * fs) + 1
+        if k1 - k0 > settings.max_grid_samples:
+            raise MeasurementError(f"{file}: the time grid at fs_hz={fs:.6g} Hz over t={fmt_t(t[0])}..{fmt_t(t[-1])} "
+                                   f"needs {k1 - k0:.4g} samples ({8 * (k1 - k0) / 2**30:.3g} GiB per channel), more "
+                                   f"than max_grid_samples={settings.max_grid_samples}; lower the grid rate (fs_hz, "
+                                   "gearrom te --fs-hz)")
+        tg = np.arange(k0, k1) / fs
         th_in, th_out = np.interp(tg, t, th["input"]), np.interp(tg, t, th["output"])
     rpm = (th["input"][-1]) / (t[-1] - t[0]) * 60.0 / (2 * math.pi)
     return AngleData(t_s=tg, theta_in_rad=th_in, theta_out_rad=th_out, fs_hz=fs, meta=meta, repairs=tuple(repairs),

@@ -50,8 +50,23 @@ SIGNAL_KEYS: dict[str, tuple[type | tuple[type, ...], str, str]] = {
 }
 
 
+def _build(values: Mapping[str, Any], blame: Mapping[str, str]) -> tuple[TESettings, ReadSettings]:
+    """Settings from ``values``; ``blame[key]`` names where each value came from, for the messages."""
+    kw: dict[str, dict[str, Any]] = {"te": {}, "filter": {}, "read": {}}
+    for key, val in values.items():
+        if key not in SIGNAL_KEYS:
+            raise ConfigError(f"{blame[key]}: unknown key {key!r} in [signal]; allowed: {sorted(SIGNAL_KEYS)}")
+        typ, target, name = SIGNAL_KEYS[key]
+        if isinstance(val, bool) and typ is not bool or not isinstance(val, typ):
+            raise ConfigError(f"{blame[key]}: [signal] key {key!r} has the wrong type ({val!r})")
+        kw[target][name] = float(val) if typ == (int, float) else val
+    te = TESettings(filters=FilterSettings(**kw["filter"]), **kw["te"])
+    return te, ReadSettings(**kw["read"])
+
+
 def settings_from_section(section: Mapping[str, Any], where: str = "[signal]",
-                          overrides: Mapping[str, Any] | None = None) -> tuple[TESettings, ReadSettings]:
+                          overrides: Mapping[str, Any] | None = None,
+                          option_names: Mapping[str, str] | None = None) -> tuple[TESettings, ReadSettings]:
     """TE and reader settings from a ``[signal]`` section, with optional overrides (same keys).
 
     Parameters
@@ -62,31 +77,43 @@ def settings_from_section(section: Mapping[str, Any], where: str = "[signal]",
         Name of the config for messages.
     overrides : mapping, optional
         Values that replace the section's (e.g. from command-line options); None values are ignored.
+    option_names : mapping, optional
+        ``key -> option`` (e.g. ``{"grid_fs_hz": "--fs-hz"}``): an error caused by an override names
+        the option instead of the config's ``[signal]`` section.
 
     Raises
     ------
     ConfigError
-        Unknown key, wrong type or invalid value (names the key).
+        Unknown key, wrong type or invalid value: names the key of the section, or the override
+        (option) that makes the settings invalid.
     """
     values = dict(section)
-    values.update({k: v for k, v in (overrides or {}).items() if v is not None})
-    kw: dict[str, dict[str, Any]] = {"te": {}, "filter": {}, "read": {}}
-    for key, val in values.items():
-        if key not in SIGNAL_KEYS:
-            raise ConfigError(f"{where}: unknown key {key!r} in [signal]; allowed: {sorted(SIGNAL_KEYS)}")
-        typ, target, name = SIGNAL_KEYS[key]
-        if isinstance(val, bool) and typ is not bool or not isinstance(val, typ):
-            raise ConfigError(f"{where}: [signal] key {key!r} has the wrong type ({val!r})")
-        kw[target][name] = float(val) if typ == (int, float) else val
+    given = {k: v for k, v in (overrides or {}).items() if v is not None}
+    names = dict(option_names or {})
+
+    def label(key: str) -> str:
+        return f"option {names[key]}" if key in names else f"override {key!r}"
+
     try:
-        te = TESettings(filters=FilterSettings(**kw["filter"]), **kw["te"])
-        read = ReadSettings(**kw["read"])
+        _build(values, {k: where for k in values})
     except ConfigError as exc:
-        raise ConfigError(f"{where}: [signal]: {exc}") from None
-    return te, read
+        msg = str(exc)
+        raise ConfigError(msg if msg.startswith(where) else f"{where}: [signal]: {msg}") from None
+    for key, val in given.items():  # each override alone on top of the section: the culprit is named
+        try:
+            _build({**values, key: val}, {**{k: where for k in values}, key: label(key)})
+        except ConfigError as exc:
+            msg = str(exc)
+            raise ConfigError(msg if msg.startswith(label(key)) else f"{label(key)}={val!r}: {msg}") from None
+    try:
+        return _build({**values, **given}, {**{k: where for k in values}, **{k: label(k) for k in given}})
+    except ConfigError as exc:  # valid one by one, invalid together
+        opts = ", ".join(label(k) for k in given)
+        raise ConfigError(f"{opts} with {where} [signal]: {exc}") from None
 
 
-def settings_from_config(name_or_path: str | Path, overrides: Mapping[str, Any] | None = None):
+def settings_from_config(name_or_path: str | Path, overrides: Mapping[str, Any] | None = None,
+                         option_names: Mapping[str, str] | None = None):
     """``(TESettings, ReadSettings)`` from the ``[signal]`` section of a gear configuration.
 
     Parameters
@@ -95,8 +122,10 @@ def settings_from_config(name_or_path: str | Path, overrides: Mapping[str, Any] 
         Bundled config name or TOML file (:func:`gearrom.config.load_config`).
     overrides : mapping, optional
         Values replacing the section's (same keys); None values are ignored.
+    option_names : mapping, optional
+        ``key -> command-line option`` named in errors caused by an override.
     """
     from gearrom.config import load_config
 
     cfg = load_config(name_or_path, check=False)
-    return settings_from_section(cfg.section("signal"), str(cfg.source or name_or_path), overrides)
+    return settings_from_section(cfg.section("signal"), str(cfg.source or name_or_path), overrides, option_names)

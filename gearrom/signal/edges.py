@@ -23,6 +23,7 @@ Every repair is listed (:class:`Repair`); with ``strict=True`` every repair is a
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import asdict, dataclass
 from typing import Literal
 
@@ -62,6 +63,12 @@ class ReadSettings:
         Angle between edges: a cubic Hermite through the edges with centred-difference slopes
         (default; error O(h^3)), or linear (O(h^2): a TE component with p edges per period on the
         channel that carries it is attenuated by sinc^2(pi/p) ~ 1 - (2 pi/p)^2/12).
+    max_grid_samples : int
+        Most samples of the common time grid per channel (8 bytes each). A grid rate far above
+        the edge rate, or an overlong record, is an error instead of an allocation that exhausts
+        the memory.
+    allow_outside_data : bool
+        Read a data file outside the measurement JSON's folder tree (refused by default).
     """
 
     fs_hz: float | None = None
@@ -75,16 +82,63 @@ class ReadSettings:
     rpm_tolerance: float = 0.05
     strict: bool = False
     edge_interp: Literal["linear", "cubic"] = "cubic"
+    max_grid_samples: int = 100_000_000
+    allow_outside_data: bool = False
 
     def __post_init__(self):
-        if self.fs_hz is not None and not self.fs_hz > 0:
-            raise ConfigError(f"Parameter fs_hz={self.fs_hz!r} must be > 0 or None")
+        if self.fs_hz is not None and not (isinstance(self.fs_hz, (int, float)) and math.isfinite(self.fs_hz)
+                                           and self.fs_hz > 0):
+            raise ConfigError(f"Parameter fs_hz={self.fs_hz!r} must be a finite number > 0 or None")
+        if not (isinstance(self.fs_max_hz, (int, float)) and math.isfinite(self.fs_max_hz) and self.fs_max_hz > 0):
+            raise ConfigError(f"Parameter fs_max_hz={self.fs_max_hz!r} must be a finite number > 0")
+        if not (isinstance(self.rpm_tolerance, (int, float)) and math.isfinite(self.rpm_tolerance)
+                and self.rpm_tolerance > 0):
+            raise ConfigError(f"Parameter rpm_tolerance={self.rpm_tolerance!r} must be a finite number > 0")
+        if isinstance(self.max_grid_samples, bool) or not isinstance(self.max_grid_samples, int) \
+                or self.max_grid_samples < 16:
+            raise ConfigError(f"Parameter max_grid_samples={self.max_grid_samples!r} must be an integer >= 16")
         if not (0 < self.double_ratio < 1 < self.gap_ratio):
             raise ConfigError(f"need 0 < double_ratio={self.double_ratio} < 1 < gap_ratio={self.gap_ratio}")
         if self.chunk_rows < 16:
             raise ConfigError(f"Parameter chunk_rows={self.chunk_rows} must be >= 16")
         if self.edge_interp not in ("linear", "cubic"):
             raise ConfigError(f"Parameter edge_interp={self.edge_interp!r} must be 'linear' or 'cubic'")
+
+
+#: Largest float64 spacing of the time stamps, relative to the edge (or row) interval, that passes
+#: without a warning: above it the stored times no longer resolve the angle between edges.
+TIME_RESOLUTION_RATIO = 1e-4
+
+
+def check_time_resolution(t_first: float, t_last: float, interval_s: float, where: str) -> float:
+    """Warn when float64 time stamps of this magnitude cannot resolve the edge interval.
+
+    Time stamps stored as absolute times (e.g. Unix time, about 1.7e9 s) keep only the float64
+    spacing at that magnitude (``numpy.spacing``; 2.4e-7 s at 1.7e9 s); the rest is lost before
+    gearrom reads them. The loss is reported, not repaired: subtracting the start time when the
+    file is written keeps the resolution.
+
+    Parameters
+    ----------
+    t_first, t_last : float
+        First and last time stamp of the chunk, s.
+    interval_s : float
+        Typical interval between consecutive stamps (edges or rows), s.
+    where : str
+        File and channel for the message.
+
+    Returns
+    -------
+    float
+        The float64 spacing (ulp) at the largest magnitude, s.
+    """
+    ulp = float(np.spacing(max(abs(t_first), abs(t_last))))
+    if interval_s > 0 and ulp > TIME_RESOLUTION_RATIO * interval_s:
+        warnings.warn(f"{where}: time stamps near t={max(abs(t_first), abs(t_last)):.6g} s are stored with a float64 "
+                      f"resolution of {ulp:.3g} s, {ulp / interval_s:.3g} x the interval of {interval_s:.3g} s between "
+                      "stamps: the timing below that resolution is lost; store times relative to the start of the "
+                      "record", stacklevel=3)
+    return ulp
 
 
 @dataclass(frozen=True)
@@ -145,6 +199,7 @@ class EdgeStream:
         self._out: list[np.ndarray] = []
         self._buf_t = np.empty(0)  # cubic: accepted edges not yet fully emitted (3 kept for slopes)
         self._buf_c = np.empty(0)
+        self.n_grid = 0  # grid samples emitted so far (bounded by settings.max_grid_samples)
 
     # -- messages ---------------------------------------------------------------------------
     def _where(self, row: int) -> str:
@@ -203,6 +258,12 @@ class EdgeStream:
         t_new, r_new = self._tail_t, self._tail_row
         if self.last_t is None:
             e_t, e_row = t_new, r_new
+            if t_new.size >= 2:
+                pos = np.diff(t_new)
+                pos = pos[pos > 0]
+                if pos.size:
+                    check_time_resolution(float(t_new[0]), float(t_new[-1]), float(np.median(pos)),
+                                          f"{self.file}: channel {self.channel!r}")
             self.first_t = float(t_new[0])
             self.last_count = 0
             self.next_k = math.ceil(self.first_t * self.fs - 1e-9)
@@ -305,6 +366,16 @@ class EdgeStream:
             self._repair(kind, int(e_row[drop]), float(e_t[drop]), 1,
                          f"spurious edge removed (interval {d[i]:.3g} s, below {self.s.double_ratio} x local mean)")
 
+    def _reserve(self, n: int, t: float) -> None:
+        """Count ``n`` more grid samples; refuse before allocating when the grid outgrows the limit."""
+        self.n_grid += n
+        if self.n_grid > self.s.max_grid_samples:
+            raise MeasurementError(
+                f"{self.file}: channel {self.channel!r}, t={fmt_t(t)}: the time grid at fs_hz={self.fs:.6g} Hz "
+                f"needs more than max_grid_samples={self.s.max_grid_samples} samples "
+                f"({8 * self.n_grid / 2**30:.3g} GiB per channel up to this edge); lower the grid rate "
+                "(fs_hz, gearrom te --fs-hz) or read a shorter record")
+
     def _emit(self, ta: np.ndarray, counts: np.ndarray) -> None:
         if self.s.edge_interp == "cubic":
             new = slice(0, None) if self._buf_t.size == 0 else slice(1, None)  # ta[0] is buffered already
@@ -317,6 +388,7 @@ class EdgeStream:
         k_end = math.floor(ta[-1] * self.fs + 1e-9)
         if k_end < self.next_k:
             return
+        self._reserve(k_end + 1 - self.next_k, float(ta[-1]))
         k = np.arange(self.next_k, k_end + 1)
         self._out.append(np.interp(k / self.fs, ta, counts.astype(np.float64)) * self.dtheta)
         self.next_k = k_end + 1
@@ -326,6 +398,7 @@ class EdgeStream:
         k_end = math.floor(t_end * self.fs + 1e-9)
         if k_end < self.next_k:
             return
+        self._reserve(k_end + 1 - self.next_k, float(t_end))
         bt, bc = self._buf_t, self._buf_c
         tg = np.arange(self.next_k, k_end + 1) / self.fs
         n = bt.size

@@ -62,7 +62,12 @@ class MeasurementMeta:
     encoders : dict
         ``{"input": EncoderInfo, "output": EncoderInfo}`` (required for kind "edges").
     torque_out_Nm, description, config, extra
-        Optional information; ``config`` names a gear configuration for the TE.
+        Optional information; ``config`` names a gear configuration for the TE: a bundled name as
+        written, a file path resolved against the JSON's folder (so the result does not depend on
+        the working directory).
+    data_inside : bool
+        The data file lies in the JSON's folder tree. Readers refuse other data files unless
+        ``ReadSettings.allow_outside_data`` is set, and never quote their content in messages.
     """
 
     path: Path
@@ -75,6 +80,7 @@ class MeasurementMeta:
     description: str = ""
     config: str | None = None
     extra: dict[str, Any] = field(default_factory=dict)
+    data_inside: bool = True
 
     @property
     def data_format(self) -> Literal["csv", "tdms"]:
@@ -159,9 +165,31 @@ def read_meta(path: str | Path) -> MeasurementMeta:
     if not isinstance(extra, dict):
         raise MeasurementError(f"{where}: key 'extra' must be an object, got {extra!r}")
     encoders = _read_encoders(doc.get("encoders"), where, required=kind == "edges")
+    config = _resolve_config(doc.get("config"), path, where)
+    try:
+        inside = data_path.is_relative_to(path.parent.resolve())
+    except (OSError, RuntimeError):
+        inside = False
     return MeasurementMeta(path=path, data_path=data_path, kind=kind, rpm_in=rpm_in, clock_hz=clock_hz,
                            encoders=encoders, torque_out_Nm=torque, description=doc.get("description", ""),
-                           config=doc.get("config"), extra=extra)
+                           config=config, extra=extra, data_inside=inside)
+
+
+def _resolve_config(value: str | None, path: Path, where: str) -> str | None:
+    """The ``config`` key: a bundled name (no path separator, no suffix) stays a name; anything
+    else is a file path, taken relative to the JSON's folder like ``data``."""
+    if value is None:
+        return None
+    from gearrom.config import bundled_names
+
+    if not value.strip() or "\x00" in value:
+        raise MeasurementError(f"{where}: key 'config' must be a bundled config name or a TOML path, got {value!r}")
+    if value in bundled_names() and "/" not in value and "\\" not in value and not Path(value).suffix:
+        return value
+    try:
+        return str((path.parent / value).resolve())
+    except (OSError, RuntimeError, ValueError) as exc:
+        raise MeasurementError(f"{where}: key 'config': invalid path {value!r}: {exc}") from None
 
 
 def _read_encoders(enc: Any, where: str, *, required: bool) -> dict[str, EncoderInfo]:

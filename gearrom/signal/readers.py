@@ -4,6 +4,10 @@ They yield bounded chunks so that records with tens of millions of edges are rea
 memory. Every element carries its row number (``line`` in a CSV file, 1-based, header = line 1;
 ``sample`` index in a TDMS channel, 0-based) so that later checks can name it. Any parser failure
 is turned into :class:`~gearrom.errors.MeasurementError` naming the file, the line and the column.
+
+A data file outside the measurement JSON's folder tree is read only when the caller allows it
+(``allow_outside_data``), and messages about such a file never quote its content: a measurement
+JSON from elsewhere must not turn the reader into a way of displaying arbitrary files.
 """
 from __future__ import annotations
 
@@ -48,14 +52,37 @@ def row_label(meta: MeasurementMeta) -> str:
     return "sample" if meta.data_format == "tdms" else "line"
 
 
-def iter_chunks(meta: MeasurementMeta, chunk_rows: int = 2_000_000) -> Iterator[EdgeChunk | AngleChunk]:
+HIDDEN = "<not shown: data file outside the measurement folder>"
+
+
+def shown(meta: MeasurementMeta, value: object) -> str:
+    """``repr(value)`` for messages, or a placeholder when the data file lies outside the JSON's folder."""
+    return repr(value) if meta.data_inside else HIDDEN
+
+
+def iter_chunks(meta: MeasurementMeta, chunk_rows: int = 2_000_000, *,
+                allow_outside_data: bool = False) -> Iterator[EdgeChunk | AngleChunk]:
     """Yield the data of a measurement in chunks of at most ``chunk_rows`` rows.
+
+    Parameters
+    ----------
+    meta : MeasurementMeta
+        The measurement.
+    chunk_rows : int
+        Rows per chunk.
+    allow_outside_data : bool
+        Read a data file outside the JSON's folder tree (otherwise an error).
 
     Raises
     ------
     MeasurementError
-        Missing file, header, column, channel or group; unparsable value. Names file and line.
+        Missing file, header, column, channel or group; unparsable value; a data file outside the
+        measurement folder that is not allowed. Names file and line.
     """
+    if not meta.data_inside and not allow_outside_data:
+        raise MeasurementError(f"{meta.path}: key 'data' = {meta.data_path} lies outside the measurement's folder "
+                               f"{meta.path.parent.resolve()}; move the data file there, or allow it explicitly "
+                               "(gearrom te/diagnose --allow-outside-data, ReadSettings(allow_outside_data=True))")
     try:
         found = meta.data_path.is_file()
     except OSError as exc:
@@ -68,7 +95,7 @@ def iter_chunks(meta: MeasurementMeta, chunk_rows: int = 2_000_000) -> Iterator[
         yield from _iter_csv(meta, chunk_rows)
 
 
-def _read_header(path: Path, kind: str) -> list[str]:
+def _read_header(path: Path, kind: str, meta: MeasurementMeta) -> list[str]:
     try:
         with open(path, encoding="utf-8-sig", newline="") as fh:
             first = fh.readline()
@@ -82,15 +109,16 @@ def _read_header(path: Path, kind: str) -> list[str]:
     missing = [c for c in required if c not in cols]
     unknown = [c for c in cols if c not in allowed]
     if missing or unknown or len(set(cols)) != len(cols):
-        raise MeasurementError(f"{path}: line 1: header {cols} must name the columns {list(required)}"
+        raise MeasurementError(f"{path}: line 1: header {cols if meta.data_inside else HIDDEN} must name the "
+                               f"columns {list(required)}"
                                + (f" (optional {list(EDGE_OPTIONAL)})" if kind == "edges" else "")
                                + (f"; missing {missing}" if missing else "")
-                               + (f"; unknown {unknown}" if unknown else "")
+                               + (f"; unknown {unknown if meta.data_inside else HIDDEN}" if unknown else "")
                                + ("; duplicated column" if len(set(cols)) != len(cols) else ""))
     return cols
 
 
-def _diagnose_csv(path: Path, cols: list[str], first_line: int, max_lines: int) -> str | None:
+def _diagnose_csv(path: Path, cols: list[str], first_line: int, max_lines: int, meta: MeasurementMeta) -> str | None:
     """Scan from ``first_line`` for the first line that does not parse; describe it or return None."""
     try:
         with open(path, encoding="utf-8-sig", errors="replace", newline="") as fh:
@@ -102,16 +130,17 @@ def _diagnose_csv(path: Path, cols: list[str], first_line: int, max_lines: int) 
                     break
                 if len(fields) != len(cols):
                     return f"line {lineno}: expected {len(cols)} fields {cols}, found {len(fields)}"
-                chan = f", channel {fields[cols.index('channel')]!r}" if "channel" in cols else ""
+                chan = f", channel {shown(meta, fields[cols.index('channel')])}" if "channel" in cols else ""
                 for name, val in zip(cols, fields):
                     if name == "channel":
                         if val not in CHANNELS:
-                            return f"line {lineno}: column 'channel': unknown channel {val!r} (use {list(CHANNELS)})"
+                            return (f"line {lineno}: column 'channel': unknown channel {shown(meta, val)} "
+                                    f"(use {list(CHANNELS)})")
                         continue
                     try:
                         float(val)
                     except ValueError:
-                        return f"line {lineno}{chan}: column {name!r}: not a number: {val[:40]!r}"
+                        return f"line {lineno}{chan}: column {name!r}: not a number: {shown(meta, val[:40])}"
     except (OSError, csv.Error) as exc:
         return f"cannot scan file: {exc}"
     return None
@@ -121,7 +150,7 @@ def _iter_csv(meta: MeasurementMeta, chunk_rows: int) -> Iterator[EdgeChunk | An
     import pandas as pd
 
     path = meta.data_path
-    cols = _read_header(path, meta.kind)
+    cols = _read_header(path, meta.kind, meta)
     dtype = {c: "float64" for c in cols}
     if meta.kind == "edges":
         dtype["channel"] = "category"
@@ -130,7 +159,8 @@ def _iter_csv(meta: MeasurementMeta, chunk_rows: int) -> Iterator[EdgeChunk | An
         reader = pd.read_csv(path, dtype=dtype, chunksize=chunk_rows, engine="c", skip_blank_lines=False,
                              quoting=csv.QUOTE_NONE, encoding="utf-8-sig", header=0, names=cols)
     except Exception as exc:  # noqa: BLE001 - any parser failure becomes a MeasurementError
-        raise MeasurementError(f"{path}: cannot parse CSV: {type(exc).__name__}: {exc}") from None
+        raise MeasurementError(f"{path}: cannot parse CSV: {type(exc).__name__}: "
+                               f"{exc if meta.data_inside else HIDDEN}") from None
     with reader:
         while True:
             try:
@@ -138,19 +168,20 @@ def _iter_csv(meta: MeasurementMeta, chunk_rows: int) -> Iterator[EdgeChunk | An
             except StopIteration:
                 return
             except Exception as exc:  # noqa: BLE001 - pandas raises many types on malformed input
-                where = _diagnose_csv(path, cols, line0, chunk_rows + 10)
+                where = _diagnose_csv(path, cols, line0, chunk_rows + 10, meta)
+                detail = str(exc)[:200] if meta.data_inside else HIDDEN
                 raise MeasurementError(f"{path}: {where or f'near line {line0}'} "
-                                       f"(parser: {type(exc).__name__}: {str(exc)[:200]})") from None
+                                       f"(parser: {type(exc).__name__}: {detail})") from None
             n = len(df)
             if meta.kind == "angles":
                 yield AngleChunk(df["t_s"].to_numpy(np.float64), df["theta_in_rad"].to_numpy(np.float64),
                                  df["theta_out_rad"].to_numpy(np.float64), np.arange(line0, line0 + n, dtype=np.int64))
             else:
-                yield from _split_edges(path, df, line0)
+                yield from _split_edges(path, df, line0, meta)
             line0 += n
 
 
-def _split_edges(path: Path, df, line0: int) -> Iterator[EdgeChunk]:
+def _split_edges(path: Path, df, line0: int, meta: MeasurementMeta) -> Iterator[EdgeChunk]:
     cat = df["channel"]
     codes = cat.cat.codes.to_numpy()
     cats = list(cat.cat.categories)
@@ -159,7 +190,7 @@ def _split_edges(path: Path, df, line0: int) -> Iterator[EdgeChunk]:
         where = np.flatnonzero((codes < 0) | np.isin(codes, bad))[0]
         val = cat.iloc[where]
         raise MeasurementError(f"{path}: line {line0 + where}: column 'channel': unknown or empty channel "
-                               f"{val if isinstance(val, str) else ''!r} (use {list(CHANNELS)})")
+                               f"{shown(meta, val if isinstance(val, str) else '')} (use {list(CHANNELS)})")
     t = df["t_s"].to_numpy(np.float64)
     direction = df["direction"].to_numpy(np.float64) if "direction" in df.columns else None
     for name in CHANNELS:
@@ -183,13 +214,14 @@ def _iter_tdms(meta: MeasurementMeta, chunk_rows: int) -> Iterator[EdgeChunk | A
         want = meta.kind
         group = next((g for g in groups if g.name == want), groups[0] if len(groups) == 1 else None)
         if group is None:
-            raise MeasurementError(f"{path}: TDMS group {want!r} not found (groups: {[g.name for g in groups]})")
+            raise MeasurementError(f"{path}: TDMS group {want!r} not found (groups: "
+                                   f"{[g.name for g in groups] if meta.data_inside else HIDDEN})")
         names = [c.name for c in group.channels()]
         needed = CHANNELS if want == "edges" else ANGLE_COLUMNS
         for ch in needed:
             if ch not in names:
-                raise MeasurementError(f"{path}: TDMS group {group.name!r}: channel {ch!r} missing "
-                                       f"(channels: {names})")
+                raise MeasurementError(f"{path}: TDMS group {shown(meta, group.name)}: channel {ch!r} missing "
+                                       f"(channels: {names if meta.data_inside else HIDDEN})")
         try:
             if want == "angles":
                 chans = [group[c] for c in ANGLE_COLUMNS]

@@ -27,7 +27,7 @@ def test_te_cli_pitch_and_config_key(base_run, tmp_path, capsys):
     doc["config"] = "thesis-helical"
     doc["data"] = str(base_run.parent / "run.csv")
     (tmp_path / "m.json").write_text(json.dumps(doc))
-    assert main(["te", str(tmp_path / "m.json"), "--te-on", "pitch", "--json", "-"]) == 0
+    assert main(["te", str(tmp_path / "m.json"), "--te-on", "pitch", "--json", "-", "--allow-outside-data"]) == 0
     d = json.loads(capsys.readouterr().out)
     assert d["te_on"] == "pitch" and d["gear"]["name"] == "thesis-helical"
     # pitch TE = line TE / cos(alpha_t), alpha_t = 19.825 deg (reference-values.md)
