@@ -10,12 +10,16 @@ An entry is one NPZ file of named arrays, written by :func:`write_arrays` and re
   so that damage which still loads as valid arrays (a flipped bit in the data) is detected as well
   as files that do not load at all (truncated, empty, broken ZIP structure);
 * it is written to a temporary file in the cache directory and moved into place with
-  :func:`os.replace`, so that a reader sees either the complete old entry, the complete new one or
-  none, never a partly written file, also with several processes sharing the directory.
+  :func:`os.replace` (:func:`atomic_path`), so that a reader sees either the complete old entry,
+  the complete new one or none, never a partly written file, also with several processes sharing
+  the directory. A writer killed before the rename leaves only a hidden ``.*.tmp*`` file, which
+  no reader opens.
 
-:class:`FECache` is the cache used by the models: a damaged entry is reported (one warning naming
-the file), deleted and recomputed; an unwritable directory is reported once (naming the directory
-and the reason) and the run continues without storing its results.
+:class:`FECache` is the cache used by the models: a damaged entry is reported (one ``WARNING`` log
+line of the ``gearrom.fe.cache`` logger naming the file), deleted and recomputed; an unwritable
+directory is reported once (naming the directory and the reason) and the run continues without
+storing its results. The reports go to :mod:`logging` rather than :mod:`warnings` so that they
+stay one line and are not hidden by callers that silence model warnings.
 """
 from __future__ import annotations
 
@@ -25,8 +29,8 @@ import json
 import logging
 import os
 import tempfile
-import warnings
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
+from contextlib import contextmanager
 from pathlib import Path
 from typing import TypeVar
 
@@ -43,10 +47,6 @@ CACHE_FORMAT = 2
 
 DIGEST_FIELD = "_content_sha256"
 """Name of the array that holds the SHA-256 digest of the other arrays of an entry."""
-
-
-class CacheWarning(UserWarning):
-    """A cache entry was damaged, or the cache directory cannot be written; the run continues."""
 
 
 class CacheEntryError(GearromError, ValueError):
@@ -119,21 +119,42 @@ def write_arrays(path: str | Path, arrays: Mapping[str, object]) -> Path:
     path = Path(path)
     data = {k: np.asanyarray(v) for k, v in arrays.items() if k != DIGEST_FIELD}
     data[DIGEST_FIELD] = np.array(content_digest(data))
+    with atomic_path(path) as tmp, open(tmp, "wb") as f:
+        np.savez(f, **data)
+    return path
+
+
+@contextmanager
+def atomic_path(path: str | Path) -> Iterator[Path]:
+    """A temporary file next to ``path`` that replaces ``path`` when the block completes.
+
+    The block writes the temporary file (any writer that takes a path); on normal exit the file is
+    flushed to disk and renamed over ``path`` with :func:`os.replace` (atomic within one file
+    system), on an exception it is deleted and ``path`` is left as it was. The temporary name is
+    hidden, unique per writer and ends with ``path``'s suffix (for writers that check it). Missing
+    parent directories are created.
+
+    Raises
+    ------
+    OSError
+        The directory cannot be created or written.
+    """
+    path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    fd, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=f".tmp{path.suffix}", dir=path.parent)
+    os.close(fd)
+    tmp = Path(name)
     try:
-        with os.fdopen(fd, "wb") as f:
-            np.savez(f, **data)
-            f.flush()
+        yield tmp
+        with open(tmp, "rb+") as f:
             os.fsync(f.fileno())
         os.replace(tmp, path)
     except BaseException:
         try:
-            os.unlink(tmp)
+            tmp.unlink()
         except OSError:
             pass
         raise
-    return path
 
 
 def read_arrays(path: str | Path) -> dict[str, np.ndarray]:
@@ -189,10 +210,10 @@ class FECache:
 
     Notes
     -----
-    :meth:`fetch` returns an entry if it is intact; a damaged one is reported with one
-    :class:`CacheWarning` naming the file and deleted, and the caller recomputes it. :meth:`store`
-    writes an entry; if the directory cannot be written, one :class:`CacheWarning` names the
-    directory and the reason, and the cache stops writing (the caller keeps its result).
+    :meth:`fetch` returns an entry if it is intact; a damaged one is reported in one warning log
+    line naming the file and deleted, and the caller recomputes it. :meth:`store` writes an entry;
+    if the directory cannot be written, one warning log line names the directory and the reason,
+    and the cache stops writing (the caller keeps its result).
     """
 
     def __init__(self, directory: str | Path) -> None:
@@ -209,8 +230,9 @@ class FECache:
     def fetch(self, name: str, load: Callable[[Path], T]) -> T | None:
         """The entry ``name`` read by ``load`` (``path -> object``), or None if absent or damaged.
 
-        Any exception of ``load`` other than a missing file counts as damage: it is reported in one
-        :class:`CacheWarning` naming the file and the entry is deleted (if the directory allows it).
+        Any exception of ``load`` other than a missing or unreadable file counts as damage: it is
+        reported in one warning log line naming the file, and the entry is deleted (if the
+        directory allows it).
         """
         path = self.path(name)
         try:
@@ -223,8 +245,7 @@ class FECache:
         except FileNotFoundError:  # removed by another process since the check
             return None
         except PermissionError as exc:  # intact or not, this process cannot read it: leave it alone
-            warnings.warn(f"FE cache entry {path} cannot be read ({exc.strerror or exc}), recomputing it",
-                          CacheWarning, stacklevel=2)
+            log.warning("FE cache entry %s cannot be read (%s), recomputing it", path, exc.strerror or exc)
             return None
         except Exception as exc:  # noqa: BLE001  (any failure to read an entry: recompute it)
             reason = _one_line(exc.__cause__ or exc) if isinstance(exc, CacheEntryError) else _one_line(exc)
@@ -235,8 +256,7 @@ class FECache:
                 action = "deleted"
             except OSError as uexc:
                 action = f"could not be deleted ({uexc.strerror or uexc})"
-            warnings.warn(f"FE cache entry {path} is damaged and {action}, recomputing it: {reason}",
-                          CacheWarning, stacklevel=2)
+            log.warning("FE cache entry %s is damaged and %s, recomputing it: %s", path, action, reason)
             return None
 
     def store(self, name: str, save: Callable[[Path], object]) -> bool:
@@ -246,8 +266,8 @@ class FECache:
         -------
         bool
             True if written. False if the directory cannot be written: the first failure is reported
-            in one :class:`CacheWarning` naming the directory and the reason, and later calls do not
-            try again.
+            in one warning log line naming the directory and the reason, and later calls do not try
+            again.
         """
         if not self.writable:
             return False
@@ -256,8 +276,8 @@ class FECache:
             return True
         except OSError as exc:
             self.writable = False
-            warnings.warn(f"FE cache directory {self.directory} cannot be written ({self._why(exc)}); "
-                          "running without the cache, results are not stored", CacheWarning, stacklevel=2)
+            log.warning("FE cache directory %s cannot be written (%s); running without the cache, "
+                        "results are not stored", self.directory, self._why(exc))
             return False
 
     def _why(self, exc: OSError) -> str:

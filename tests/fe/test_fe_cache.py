@@ -2,14 +2,14 @@
 atomic writes, for the 2D compliances (real FE on a very coarse mesh) and the 3D ones (the shared
 helper, with a synthetic compliance in place of the 3D FE solve).
 
-A damaged entry must be reported in one warning naming the file, deleted and recomputed, and the
-run must give the result of a clean run; an unwritable cache directory must be reported in one
-warning naming it, and the run must still return its result.
+A damaged entry must be reported in one warning log line naming the file, deleted and recomputed,
+and the run must give the result of a clean run; an unwritable cache directory must be reported in
+one warning log line naming it, and the run must still return its result.
 """
 from __future__ import annotations
 
+import logging
 import os
-import warnings
 import zipfile
 
 import numpy as np
@@ -17,7 +17,7 @@ import pytest
 
 from gearrom.fe import cache as fecache
 from gearrom.fe import compliance, compliance3d
-from gearrom.fe.cache import CacheEntryError, CacheWarning, FECache, read_arrays, write_arrays
+from gearrom.fe.cache import CacheEntryError, FECache, atomic_path, read_arrays, write_arrays
 from gearrom.fe.mesh2d import MeshSettings
 from gearrom.fe.mesh3d import Mesh3DSettings
 from gearrom.fe.sweep import build_ltca, mesh_cycle
@@ -89,8 +89,9 @@ DAMAGE = {
 }
 
 
-def _cache_warnings(record):
-    return [w for w in record if issubclass(w.category, CacheWarning)]
+def _reports(caplog):
+    """Warning lines of the cache logger since the last ``caplog.clear()``."""
+    return [r.getMessage() for r in caplog.records if r.name == fecache.log.name and r.levelno == logging.WARNING]
 
 
 def _same_as_clean(ltca, clean):
@@ -102,29 +103,26 @@ def _same_as_clean(ltca, clean):
 
 
 @pytest.mark.parametrize("damage", sorted(DAMAGE))
-def test_damaged_entry_is_reported_deleted_and_recomputed(pair, clean, filled, fe_calls, damage):
+def test_damaged_entry_is_reported_deleted_and_recomputed(pair, clean, filled, fe_calls, damage, caplog):
     path = _entry(pair, filled, 0)
     DAMAGE[damage](path)
-    with warnings.catch_warnings(record=True) as record:
-        warnings.simplefilter("always")
-        ltca = build_ltca(pair, MESH, cache_dir=filled)
-    msgs = [str(w.message) for w in _cache_warnings(record)]
+    caplog.clear()
+    ltca = build_ltca(pair, MESH, cache_dir=filled)
+    msgs = _reports(caplog)
     assert len(msgs) == 1 and str(path) in msgs[0] and "damaged" in msgs[0] and "\n" not in msgs[0], msgs
     assert fe_calls == [0]  # only the damaged gear is recomputed
     _same_as_clean(ltca, clean)
     # the recomputed entry replaced the damaged one: the next run reads both without FE or warning
     read_arrays(path)
-    with warnings.catch_warnings(record=True) as record:
-        warnings.simplefilter("always")
-        build_ltca(pair, MESH, cache_dir=filled)
-    assert not _cache_warnings(record) and fe_calls == [0]
+    caplog.clear()
+    build_ltca(pair, MESH, cache_dir=filled)
+    assert not _reports(caplog) and fe_calls == [0]
 
 
-def test_intact_entries_are_used(pair, clean, filled, fe_calls):
-    with warnings.catch_warnings(record=True) as record:
-        warnings.simplefilter("always")
-        ltca = build_ltca(pair, MESH, cache_dir=filled)
-    assert not _cache_warnings(record) and fe_calls == []
+def test_intact_entries_are_used(pair, clean, filled, fe_calls, caplog):
+    caplog.clear()
+    ltca = build_ltca(pair, MESH, cache_dir=filled)
+    assert not _reports(caplog) and fe_calls == []
     _same_as_clean(ltca, clean)
 
 
@@ -137,55 +135,50 @@ def test_digest_detects_changes_numpy_loads_silently(pair, clean, tmp_path):
         compliance.FlankCompliance.load(path)
 
 
-def test_cache_dir_is_a_file(pair, clean, tmp_path, fe_calls):
+def test_cache_dir_is_a_file(pair, clean, tmp_path, fe_calls, caplog):
     blocker = tmp_path / "cache"
     blocker.write_text("a file where the cache directory should be\n")
-    with warnings.catch_warnings(record=True) as record:
-        warnings.simplefilter("always")
-        ltca = build_ltca(pair, MESH, cache_dir=blocker)
-    msgs = [str(w.message) for w in _cache_warnings(record)]
+    caplog.clear()
+    ltca = build_ltca(pair, MESH, cache_dir=blocker)
+    msgs = _reports(caplog)
     assert len(msgs) == 1 and str(blocker) in msgs[0] and "is a file" in msgs[0], msgs
     assert fe_calls == [0, 1]
     _same_as_clean(ltca, clean)
 
 
-def test_cache_dir_below_a_file(pair, clean, tmp_path):
+def test_cache_dir_below_a_file(pair, clean, tmp_path, caplog):
     (tmp_path / "f").write_text("x\n")
-    with warnings.catch_warnings(record=True) as record:
-        warnings.simplefilter("always")
-        ltca = build_ltca(pair, MESH, cache_dir=tmp_path / "f" / "fe")
-    msgs = [str(w.message) for w in _cache_warnings(record)]
+    caplog.clear()
+    ltca = build_ltca(pair, MESH, cache_dir=tmp_path / "f" / "fe")
+    msgs = _reports(caplog)
     assert len(msgs) == 1 and str(tmp_path / "f" / "fe") in msgs[0] and "is a file" in msgs[0], msgs
     _same_as_clean(ltca, clean)
 
 
-def test_cache_dir_not_writable(pair, clean, tmp_path, monkeypatch):
+def test_cache_dir_not_writable(pair, clean, tmp_path, monkeypatch, caplog):
     """Permission denied on the write (simulated: the tests may run as root, which ignores modes)."""
     def denied(src, dst):
         raise PermissionError(13, "Permission denied", str(dst))
 
     monkeypatch.setattr(fecache.os, "replace", denied)
-    with warnings.catch_warnings(record=True) as record:
-        warnings.simplefilter("always")
-        ltca = build_ltca(pair, MESH, cache_dir=tmp_path)
-    msgs = [str(w.message) for w in _cache_warnings(record)]
+    caplog.clear()
+    ltca = build_ltca(pair, MESH, cache_dir=tmp_path)
+    msgs = _reports(caplog)
     assert len(msgs) == 1 and str(tmp_path) in msgs[0] and "permission denied" in msgs[0], msgs
     assert list(tmp_path.iterdir()) == []  # no temporary files left behind
     _same_as_clean(ltca, clean)
 
 
 @pytest.mark.skipif(not hasattr(os, "geteuid") or os.geteuid() == 0, reason="root ignores directory modes")
-def test_cache_dir_read_only(pair, clean, tmp_path):
+def test_cache_dir_read_only(pair, clean, tmp_path, caplog):
     ro = tmp_path / "ro"
     ro.mkdir()
     ro.chmod(0o500)
     try:
-        with warnings.catch_warnings(record=True) as record:
-            warnings.simplefilter("always")
-            ltca = build_ltca(pair, MESH, cache_dir=ro)
+        ltca = build_ltca(pair, MESH, cache_dir=ro)
     finally:
         ro.chmod(0o700)
-    msgs = [str(w.message) for w in _cache_warnings(record)]
+    msgs = _reports(caplog)
     assert len(msgs) == 1 and str(ro) in msgs[0], msgs
     _same_as_clean(ltca, clean)
 
@@ -202,6 +195,20 @@ def test_interrupted_write_keeps_the_old_entry(tmp_path, monkeypatch):
         write_arrays(path, {"a": np.arange(4.0)})
     assert [p.name for p in tmp_path.iterdir()] == ["e.npz"]
     np.testing.assert_array_equal(read_arrays(path)["a"], np.arange(3.0))
+
+
+def test_atomic_path_with_a_path_writer(tmp_path):
+    """A writer that takes a path (as NetCDF or JSON writers do) gets a same-suffix temporary file."""
+    target = tmp_path / "t.json"
+    with atomic_path(target) as tmp:
+        assert tmp.parent == tmp_path and tmp.suffix == ".json" and tmp != target
+        tmp.write_text("{}")
+        assert not target.exists()
+    assert target.read_text() == "{}" and [p.name for p in tmp_path.iterdir()] == ["t.json"]
+    with pytest.raises(RuntimeError), atomic_path(target) as tmp:
+        tmp.write_text("{half")
+        raise RuntimeError("writer failed")
+    assert target.read_text() == "{}" and [p.name for p in tmp_path.iterdir()] == ["t.json"]
 
 
 def test_entry_roundtrip_is_exact(tmp_path):
@@ -251,7 +258,7 @@ def _synthetic3d(pair, i, settings=None, n_sigma=3, n_zeta=2, **kw):
 
 
 @pytest.mark.parametrize("damage", sorted(DAMAGE))
-def test_3d_damaged_entry_recomputed(pair, tmp_path, monkeypatch, damage):
+def test_3d_damaged_entry_recomputed(pair, tmp_path, monkeypatch, damage, caplog):
     calls = []
 
     def fake(pair, i, settings=None, **kw):
@@ -264,10 +271,9 @@ def test_3d_damaged_entry_recomputed(pair, tmp_path, monkeypatch, damage):
     path = tmp_path / f"flank3d-{compliance3d.gear_key3d(pair, 1, s)}.npz"
     assert path.is_file() and calls == [1]
     DAMAGE[damage](path)
-    with warnings.catch_warnings(record=True) as record:
-        warnings.simplefilter("always")
-        again = compliance3d.cached_compliance3d(pair, 1, s, cache_dir=tmp_path)
-    msgs = [str(w.message) for w in _cache_warnings(record)]
+    caplog.clear()
+    again = compliance3d.cached_compliance3d(pair, 1, s, cache_dir=tmp_path)
+    msgs = _reports(caplog)
     assert len(msgs) == 1 and str(path) in msgs[0], msgs
     assert calls == [1, 1]
     for k in ("G", "B", "sigma", "zeta", "depth"):
@@ -278,14 +284,13 @@ def test_3d_damaged_entry_recomputed(pair, tmp_path, monkeypatch, damage):
     np.testing.assert_array_equal(third.B, first.B)
 
 
-def test_3d_unwritable_dir_warns_once_per_cache(pair, tmp_path, monkeypatch):
+def test_3d_unwritable_dir_warns_once_per_cache(pair, tmp_path, monkeypatch, caplog):
     monkeypatch.setattr(compliance3d, "compute_compliance3d", _synthetic3d)
     blocker = tmp_path / "cache"
     blocker.write_text("x\n")
     cache = FECache(blocker)
-    with warnings.catch_warnings(record=True) as record:
-        warnings.simplefilter("always")
-        comps = [compliance3d.cached_compliance3d(pair, i, cache_dir=cache) for i in range(2)]
-    msgs = [str(w.message) for w in _cache_warnings(record)]
+    caplog.clear()
+    comps = [compliance3d.cached_compliance3d(pair, i, cache_dir=cache) for i in range(2)]
+    msgs = _reports(caplog)
     assert len(msgs) == 1 and str(blocker) in msgs[0], msgs
     assert [c.info["gear"] for c in comps] == [0, 1]
