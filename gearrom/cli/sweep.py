@@ -1,13 +1,17 @@
 """``gearrom sweep NAME_OR_PATH --rpm 250:5000:25 --out DIR``: dynamic TE over a speed range (exudyn ROM).
 
-Writes ``DIR/speeds/*.nc`` (one per speed, resumable), ``DIR/sweep.nc`` (xarray dataset),
-``DIR/summary.json``, ``DIR/waterfall.png`` (DTE spectrum vs speed) and ``DIR/gmf_vs_speed.png``
-(time-domain GMF harmonics with the python-control linear estimate overlaid).
+Writes ``DIR/speeds/*.nc`` (one per speed, reused by a rerun into the same ``DIR`` when nothing the
+speed depends on has changed, see :func:`gearrom.rom.sweep.reuse_key`), ``DIR/sweep.nc`` (xarray
+dataset), ``DIR/summary.json``, ``DIR/waterfall.png`` (DTE spectrum vs speed) and
+``DIR/gmf_vs_speed.png`` (time-domain GMF harmonics with the python-control linear estimate
+overlaid). Every file is written to a temporary file and renamed into place.
 """
 from __future__ import annotations
 
 import argparse
+import io
 import json
+import math
 import sys
 import time
 import warnings
@@ -54,17 +58,31 @@ def sweep_settings(cfg, args) -> dict:
         out["output_revolutions"] = args.revs
     if out["processes"] < 1:
         raise ConfigError(f"--processes must be >= 1, got {out['processes']}")
+    if args.torque is not None and not (math.isfinite(args.torque) and args.torque > 0):
+        raise ConfigError(f"--torque must be a positive, finite load torque, got {args.torque:g} N m")
     return out
 
 
+def _check_repeats(rpms, st: dict, cfg, args) -> None:
+    """Reject a speed given twice, naming where the speeds came from (``--rpm`` or ``sweep.rpm``)."""
+    from gearrom.rom.sweep import repeated_speeds
+
+    repeats = repeated_speeds(rpms)
+    if repeats:
+        where = f"--rpm {args.rpm!r}" if args.rpm is not None else f"{cfg.source}: sweep.rpm {st['rpm']!r}"
+        raise ConfigError(f"{where} gives {', '.join(f'{r:g}' for r in repeats)} rpm more than once; "
+                          f"list each speed once")
+
+
 def run(args: argparse.Namespace) -> int:
-    from gearrom.rom.sweep import parse_rpm, run_sweep
+    from gearrom.rom.sweep import parse_rpm, run_sweep, write_text_atomic
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         cfg = load_config(args.config)
     st = sweep_settings(cfg, args)
     rpms = parse_rpm(st["rpm"])
+    _check_repeats(rpms, st, cfg, args)
     t0 = time.perf_counter()
     res = run_sweep(args.config, rpms, args.out, torque_out=args.torque, processes=st["processes"],
                     n_output_revs=float(st["output_revolutions"]), samples_per_mesh=st["samples_per_mesh"],
@@ -72,12 +90,14 @@ def run(args: argparse.Namespace) -> int:
     wall = time.perf_counter() - t0
     res.save(args.out / "sweep.nc")
     summary = res.summary_json()
-    (args.out / "summary.json").write_text(json.dumps(summary, indent=1) + "\n")
+    write_text_atomic(json.dumps(summary, indent=1) + "\n", args.out / "summary.json")
     import matplotlib.pyplot as plt
 
     for name, fig in (("waterfall.png", res.plot()), ("gmf_vs_speed.png", res.plot_gmf())):
-        fig.savefig(args.out / name, dpi=120)
+        buf = io.BytesIO()
+        fig.savefig(buf, format="png", dpi=120)
         plt.close(fig)
+        _write_bytes_atomic(buf.getvalue(), args.out / name)
     n_loss = sum(s["contact_loss"] for s in res.summary)
     worst = max(res.summary, key=lambda s: s["dte_ptp_um"])
     sys.stdout.write(
@@ -86,3 +106,18 @@ def run(args: argparse.Namespace) -> int:
         f"contact loss at {n_loss} speed(s)\n"
         f"  written: {args.out}/summary.json, sweep.nc, waterfall.png, gmf_vs_speed.png, speeds/\n")
     return 0
+
+
+def _write_bytes_atomic(data: bytes, path: Path) -> None:
+    """Write ``data`` through a uniquely named temporary file in the same directory and rename it."""
+    import os
+    import tempfile
+
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise

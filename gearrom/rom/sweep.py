@@ -1,25 +1,33 @@
 """Speed sweep: one steady-state run per speed, in parallel processes, resumable.
 
-Each speed is written to ``OUT/speeds/rpm_XXXXX.XX.nc`` as soon as it finishes (with the config
-digest); a rerun skips speeds whose file exists with the same digest and settings. Every run records
+Each speed is written to ``OUT/speeds/rpm_XXXXX.XXXX_<hash>.nc`` as soon as it finishes. The hash is
+taken from the reuse key of the run (:func:`reuse_key`: merged config content, contents of the files
+the config refers to, load torque, revolutions, samples per mesh, the linear flag and the package
+versions) together with the exact speed, so a rerun into the same ``OUT`` reuses a stored speed only
+when nothing it depends on has changed, and runs that differ in any of these keep separate files.
+Every file is written to a temporary file in the same directory and renamed into place, so an
+interrupted run never leaves a partial file that a resume would trust. Every run records
 ``n_output_revs`` output revolutions (an integer number of mesh periods) at ``samples_per_mesh`` samples
 per mesh period, so all speeds share one sample axis (``mesh_cycle``) and one order axis.
 """
 from __future__ import annotations
 
+import hashlib
 import json
 import logging
 import math
 import multiprocessing as mp
 import os
+import tempfile
 import warnings
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from gearrom.errors import ConfigError, ModelError
-from gearrom.excitation.table import netcdf_engine, write_netcdf
+from gearrom.excitation.table import netcdf_engine
 
 log = logging.getLogger(__name__)
 CHANNELS = ("dte_sensor", "dte_clutch", "delta", "force", "ste")
@@ -50,13 +58,174 @@ def parse_rpm(spec: str | float | list) -> np.ndarray:
     return arr
 
 
-def _model(config_ref: str, torque: float):
-    key = (config_ref, torque)
-    if key not in _MODEL_CACHE:
+def _model(config_ref: str, torque: float, key: str):
+    """The rig model of ``config_ref`` at ``torque``, cached per process by the run's reuse key.
+
+    The key covers the contents of the files the config refers to, so a rewritten excitation table
+    builds a new model instead of returning the one built from the earlier table.
+    """
+    cache_key = (config_ref, torque, key)
+    if cache_key not in _MODEL_CACHE:
         from gearrom.rom.rig import build_rig
 
-        _MODEL_CACHE[key] = build_rig(config_ref, torque_out=torque)
-    return _MODEL_CACHE[key]
+        if len(_MODEL_CACHE) >= 4:
+            _MODEL_CACHE.clear()
+        _MODEL_CACHE[cache_key] = build_rig(config_ref, torque_out=torque)
+    return _MODEL_CACHE[cache_key]
+
+
+def write_netcdf_atomic(dataset, path: str | Path) -> Path:
+    """Write an xarray ``dataset`` to ``path`` through a temporary file in the same directory.
+
+    The temporary file has a unique name (several writers of one target never open the same file)
+    and replaces ``path`` in one :func:`os.replace` step once it is complete, so ``path`` holds
+    either its previous content or the whole new file, never a partial one.
+
+    Parameters
+    ----------
+    dataset : xarray.Dataset
+        Dataset to write.
+    path : str or Path
+        Target file; its parent directories are created.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent)
+    os.close(fd)
+    try:
+        dataset.to_netcdf(tmp, engine=netcdf_engine())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def write_text_atomic(text: str, path: str | Path) -> Path:
+    """Write ``text`` to ``path`` through a uniquely named temporary file and :func:`os.replace`."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def _file_sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def referenced_files(cfg) -> dict[str, Path]:
+    """Files the config refers to: every string value that names an existing file.
+
+    Paths are resolved as :func:`gearrom.rom.rig.load_excitation` resolves ``[rom] excitation``:
+    absolute, or relative to the directory of the config file. The ``extends`` chain needs no entry
+    here: its merged content is part of :meth:`gearrom.config.GearConfig.digest`.
+
+    Returns
+    -------
+    dict of str -> Path
+        Dotted config key (``"rom.excitation"``) -> resolved file.
+    """
+    base = Path(cfg.source).parent if cfg.source is not None else Path.cwd()
+    found: dict[str, Path] = {}
+
+    def walk(node, where: str) -> None:
+        if isinstance(node, Mapping):
+            for k, v in node.items():
+                walk(v, f"{where}.{k}" if where else str(k))
+        elif isinstance(node, (list, tuple)):
+            for i, v in enumerate(node):
+                walk(v, f"{where}[{i}]")
+        elif isinstance(node, str) and where not in ("name", "description") and node.strip():
+            path = Path(node)
+            if not path.is_absolute():
+                path = base / path
+            try:
+                if path.is_file():
+                    found[where] = path.resolve()
+            except (OSError, ValueError):
+                pass
+
+    walk(cfg.raw, "")
+    return found
+
+
+def _distribution_version(name: str) -> str:
+    from importlib import metadata
+
+    try:
+        return metadata.version(name)
+    except metadata.PackageNotFoundError:
+        return "not installed"
+
+
+def reuse_key(cfg, torque: float, n_output_revs: float, samples_per_mesh: int, linear: bool) -> dict:
+    """Everything a stored per-speed result depends on, apart from the speed itself.
+
+    Parameters
+    ----------
+    cfg : GearConfig
+        Loaded config.
+    torque : float
+        Load torque [N m].
+    n_output_revs : float
+        Recorded output revolutions per speed.
+    samples_per_mesh : int
+        Samples per mesh period.
+    linear : bool
+        Whether the linear GMF estimate is stored.
+
+    Returns
+    -------
+    dict
+        JSON-serialisable key: the config digest (merged content, ``extends`` chain included), the
+        SHA-256 of the bytes of every referenced file (:func:`referenced_files`), the run settings
+        and the versions of gearrom (module and installed distribution) and exudyn.
+    """
+    import gearrom
+
+    return {"config_digest": cfg.digest(),
+            "files_sha256": {k: _file_sha256(p) for k, p in sorted(referenced_files(cfg).items())},
+            "torque_out_Nm": repr(float(torque)), "n_output_revs": repr(float(n_output_revs)),
+            "samples_per_mesh": int(samples_per_mesh), "linear": bool(linear),
+            "gearrom_version": str(gearrom.__version__),
+            "gearrom_distribution": _distribution_version("gearrom"),
+            "exudyn_version": _distribution_version("exudyn")}
+
+
+def _key_hash(key: dict) -> str:
+    return hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()
+
+
+def point_path(out_dir: str | Path, rpm: float, key_hash: str) -> Path:
+    """Stored file of one speed: ``OUT/speeds/rpm_XXXXX.XXXX_<hash>.nc``.
+
+    The hash covers the reuse key and the exact speed (``repr``), so speeds that print alike and
+    runs with different keys (another torque, table, version...) never share a file.
+    """
+    h = hashlib.sha256(f"{key_hash}|{float(rpm)!r}".encode()).hexdigest()[:16]
+    return Path(out_dir) / "speeds" / f"rpm_{float(rpm):010.4f}_{h}.nc"
+
+
+def repeated_speeds(rpms) -> list[float]:
+    """Speeds [rpm] that occur more than once in ``rpms`` (exact repeats), sorted."""
+    vals, counts = np.unique(np.asarray(rpms, dtype=float), return_counts=True)
+    return [float(v) for v in vals[counts > 1]]
 
 
 def _point_summary(run, orders: int = 3) -> dict:
@@ -70,42 +239,58 @@ def _point_summary(run, orders: int = 3) -> dict:
             "simulated_s": run.metadata.get("simulated_s")}
 
 
-def _run_one(task: tuple) -> dict:
-    config_ref, rpm, torque, n_revs, spm, path, stamp, linear = task
+def _run_one(task: tuple) -> tuple[float, dict, dict[str, np.ndarray]]:
+    """Simulate one speed, store it atomically; returns ``(rpm, summary, channels)``."""
+    config_ref, rpm, torque, n_revs, spm, path, key_hash, key_json, linear = task
     import xarray as xr
 
+    from gearrom.rom import simulate
     from gearrom.rom.frf import gmf_estimate
-    from gearrom.rom.simulate import simulate_run
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        model = _model(config_ref, torque)
+        model = _model(config_ref, torque, key_hash)
     z1 = model.pair.z[0]
     fs = spm * z1 * rpm / 60.0
-    run = simulate_run(model, rpm, torque, n_output_revs=n_revs, sample_rate_hz=fs)
+    run = simulate.simulate_run(model, rpm, torque, n_output_revs=n_revs, sample_rate_hz=fs)
     n = int(round(n_revs * model.pair.z[1])) * spm
     summary = _point_summary(run)
     if linear:
         summary["linear_gmf_amplitude_um"] = [float(v * 1e6) for v in gmf_estimate(model, [rpm], torque)[0]]
     data = {"dte_sensor": run.dte["sensor"], "dte_clutch": run.dte.get("clutch", np.full_like(run.delta, np.nan)),
             "delta": run.delta, "force": run.force, "ste": run.ste}
-    ds = xr.Dataset({k: ("sample", np.asarray(v[:n], dtype=float)) for k, v in data.items()},
-                    attrs={"rpm_in": rpm, "stamp": stamp, "summary_json": json.dumps(summary)})
-    tmp = Path(str(path) + ".part")
-    ds.to_netcdf(tmp, engine=netcdf_engine())
-    tmp.replace(path)
-    return summary
+    data = {k: np.asarray(v[:n], dtype=float) for k, v in data.items()}
+    ds = xr.Dataset({k: ("sample", v) for k, v in data.items()},
+                    attrs={"rpm_in": rpm, "stamp": key_hash, "reuse_key_json": key_json,
+                           "summary_json": json.dumps(summary)})
+    write_netcdf_atomic(ds, path)
+    return rpm, summary, data
 
 
-def _read_point(path: Path, stamp: str):
+def _one_line(exc: BaseException) -> str:
+    text = " ".join(str(exc).split())
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+
+
+def _read_point(path: Path, key_hash: str, rpm: float):
+    """``(summary, data)`` of a stored speed, or None when it is absent, of another key or damaged.
+
+    A file that cannot be read (empty, truncated, not NetCDF) is reported in one warning and
+    left to be recomputed.
+    """
     import xarray as xr
 
+    if not path.exists():
+        return None
     try:
         with xr.open_dataset(path, engine=netcdf_engine()) as ds:
-            if ds.attrs.get("stamp") != stamp:
+            if ds.attrs.get("stamp") != key_hash or float(ds.attrs.get("rpm_in", math.nan)) != rpm:
+                log.info("%s: stored for another run key or speed; recomputing", path)
                 return None
-            return json.loads(ds.attrs["summary_json"]), {k: ds[k].values.copy() for k in CHANNELS}
-    except (OSError, KeyError, ValueError):
+            return json.loads(ds.attrs["summary_json"]), {k: ds[k].values.astype(float) for k in CHANNELS}
+    except Exception as exc:  # noqa: BLE001 (any unreadable stored file is recomputed)
+        warnings.warn(f"{path}: stored sweep point is damaged ({_one_line(exc)}); recomputing it",
+                      RuntimeWarning, stacklevel=3)
         return None
 
 
@@ -158,7 +343,8 @@ class SweepResult:
         return ds
 
     def save(self, path: str | Path) -> Path:
-        return write_netcdf(self.to_dataset(), path)
+        """Write the sweep to NetCDF atomically (see :func:`write_netcdf_atomic`); returns the path."""
+        return write_netcdf_atomic(self.to_dataset(), path)
 
     @classmethod
     def load(cls, path: str | Path) -> "SweepResult":
@@ -236,18 +422,38 @@ def run_sweep(config_ref: str | Path, rpms, out_dir: str | Path, *, torque_out: 
               progress: bool = True, linear: bool = True) -> SweepResult:
     """Run (or resume) a sweep and write ``OUT/speeds/*.nc``; returns the collected :class:`SweepResult`.
 
+    A speed whose stored file in ``OUT/speeds`` carries the same reuse key (:func:`reuse_key`) is
+    read instead of simulated; a damaged stored file is reported in one warning and recomputed.
+
     Parameters
     ----------
     config_ref : str or Path
         Bundled config name or TOML path.
     rpms : array_like
-        Input speeds [rpm].
+        Input speeds [rpm], positive, each at most once.
+    out_dir : str or Path
+        Output directory; per-speed results go to ``out_dir/speeds``.
+    torque_out : float, optional
+        Load torque [N m] (default: the config's operating torque).
+    n_output_revs : float
+        Recorded output revolutions per speed.
+    samples_per_mesh : int
+        Samples per mesh period (>= 4).
+    progress : bool
+        Show a progress bar.
     processes : int
         Worker processes (1 runs in this process). Workers are *spawned* (fresh interpreters with
         single-threaded BLAS), so a script calling this with ``processes > 1`` needs the usual
         ``if __name__ == "__main__":`` guard.
     linear : bool
         Also evaluate the python-control linear GMF estimate per speed (``linear_gmf_amplitude_um``).
+
+    Raises
+    ------
+    ConfigError
+        A repeated speed, a non-positive torque, ``samples_per_mesh < 4`` or ``n_output_revs <= 0``.
+    ModelError
+        A file the config refers to changed while the speeds ran (the new results are discarded).
     """
     from gearrom.config import load_config
 
@@ -256,23 +462,30 @@ def run_sweep(config_ref: str | Path, rpms, out_dir: str | Path, *, torque_out: 
         cfg = load_config(config_ref)
     ref = str(cfg.source) if cfg.source else str(config_ref)
     torque = cfg.operating.torque_out if torque_out is None else float(torque_out)
+    if not (math.isfinite(torque) and torque > 0):
+        raise ConfigError(f"torque_out must be a positive, finite load torque, got {torque:g} N m")
     if samples_per_mesh < 4 or n_output_revs <= 0:
         raise ConfigError(f"samples_per_mesh must be >= 4 and n_output_revs > 0 (got {samples_per_mesh}, {n_output_revs})")
+    rpms = np.asarray(rpms, dtype=float).ravel()
+    repeats = repeated_speeds(rpms)
+    if repeats:
+        raise ConfigError(f"speeds must not repeat: {', '.join(f'{r:g}' for r in repeats)} rpm given more than once")
     out = Path(out_dir)
     (out / "speeds").mkdir(parents=True, exist_ok=True)
-    stamp = f"{cfg.digest()}|T={torque}|revs={n_output_revs}|spm={samples_per_mesh}|linear={linear}"
-    rpms = np.asarray(rpms, dtype=float)
-    paths = [out / "speeds" / f"rpm_{r:08.2f}.nc" for r in rpms]
-    done = {}
-    for r, p in zip(rpms, paths):
-        if p.exists():
-            got = _read_point(p, stamp)
-            if got is not None:
-                done[r] = got[0]
-    todo = [(ref, float(r), torque, n_output_revs, samples_per_mesh, p, stamp, linear)
-            for r, p in zip(rpms, paths) if r not in done]
-    if done:
-        log.info("resuming: %d of %d speeds already done", len(done), len(rpms))
+    key = reuse_key(cfg, torque, n_output_revs, samples_per_mesh, linear)
+    key_hash = _key_hash(key)
+    key_json = json.dumps(key, sort_keys=True)
+    paths = [point_path(out, r, key_hash) for r in rpms]
+    points: dict[int, tuple[dict, dict]] = {}
+    for i, (r, p) in enumerate(zip(rpms, paths)):
+        got = _read_point(p, key_hash, float(r))
+        if got is not None:
+            points[i] = got
+    todo = [(ref, float(rpms[i]), torque, n_output_revs, samples_per_mesh, paths[i], key_hash, key_json, linear)
+            for i in range(len(rpms)) if i not in points]
+    index = {float(rpms[i]): i for i in range(len(rpms))}
+    if points:
+        log.info("resuming: %d of %d speeds already done", len(points), len(rpms))
     from tqdm import tqdm
 
     bar = tqdm(total=len(todo), desc=f"sweep {cfg.name}", unit="speed", disable=not progress or not todo)
@@ -284,8 +497,8 @@ def run_sweep(config_ref: str | Path, rpms, out_dir: str | Path, *, torque_out: 
         os.environ.update({k: "1" for k in _BLAS_ENV})
         try:
             with ctx.Pool(min(processes, len(todo))) as pool:
-                for s in pool.imap_unordered(_run_one, todo):
-                    done[s["rpm_in"]] = s
+                for r, s, d in pool.imap_unordered(_run_one, todo):
+                    points[index[r]] = (s, d)
                     bar.update()
         finally:
             for k, v in saved.items():
@@ -295,18 +508,18 @@ def run_sweep(config_ref: str | Path, rpms, out_dir: str | Path, *, torque_out: 
                     os.environ[k] = v
     else:
         for t in todo:
-            s = _run_one(t)
-            done[s["rpm_in"]] = s
+            r, s, d = _run_one(t)
+            points[index[r]] = (s, d)
             bar.update()
     bar.close()
-    data = {k: [] for k in CHANNELS}
-    summary = []
-    for r, p in zip(rpms, paths):
-        got = _read_point(p, stamp)
-        if got is None:
-            raise ModelError(f"sweep point {p} is missing or unreadable")
-        summary.append(got[0])
-        for k in CHANNELS:
-            data[k].append(got[1][k])
-    return SweepResult(cfg.name, rpms, {k: np.array(v) for k, v in data.items()}, samples_per_mesh, cfg.pair.z,
-                       summary, {"config_digest": cfg.digest(), "torque_out_Nm": torque, "n_output_revs": n_output_revs})
+    if todo and _key_hash(reuse_key(cfg, torque, n_output_revs, samples_per_mesh, linear)) != key_hash:
+        # a referenced file (or the package) changed while the speeds ran: the new results may come
+        # from either version, so they are not kept under the key taken at the start
+        for t in todo:
+            Path(t[5]).unlink(missing_ok=True)
+        raise ModelError(f"{cfg.source}: a file the config refers to changed during the sweep; run it again")
+    summary = [points[i][0] for i in range(len(rpms))]
+    data = {k: np.array([points[i][1][k] for i in range(len(rpms))]) for k in CHANNELS}
+    return SweepResult(cfg.name, rpms, data, samples_per_mesh, cfg.pair.z, summary,
+                       {"config_digest": cfg.digest(), "torque_out_Nm": torque, "n_output_revs": n_output_revs,
+                        "reuse_key": key})
