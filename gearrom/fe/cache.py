@@ -49,6 +49,18 @@ DIGEST_FIELD = "_content_sha256"
 """Name of the array that holds the SHA-256 digest of the other arrays of an entry."""
 
 
+def _process_umask() -> int:
+    """The process's file mode creation mask (read by setting and restoring it)."""
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+_FILE_MODE = 0o666 & ~_process_umask()
+"""Mode of new entries: that of an ordinary new file (:func:`tempfile.mkstemp` creates 0o600, which
+would hide the entries of a shared cache directory from other users)."""
+
+
 class CacheEntryError(GearromError, ValueError):
     """A cache file cannot be read as a complete, intact entry (the message names the file)."""
 
@@ -145,6 +157,7 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     os.close(fd)
     tmp = Path(name)
     try:
+        os.chmod(tmp, _FILE_MODE)
         yield tmp
         with open(tmp, "rb+") as f:
             os.fsync(f.fileno())
@@ -248,7 +261,10 @@ class FECache:
             log.warning("FE cache entry %s cannot be read (%s), recomputing it", path, exc.strerror or exc)
             return None
         except Exception as exc:  # noqa: BLE001  (any failure to read an entry: recompute it)
-            reason = _one_line(exc.__cause__ or exc) if isinstance(exc, CacheEntryError) else _one_line(exc)
+            if isinstance(exc, CacheEntryError):  # its message starts with the path, named below
+                reason = _one_line(exc.__cause__) if exc.__cause__ else str(exc).removeprefix(f"{path}: ")
+            else:
+                reason = _one_line(exc)
             try:
                 path.unlink()
                 action = "deleted"

@@ -111,6 +111,8 @@ def test_damaged_entry_is_reported_deleted_and_recomputed(pair, clean, filled, f
     msgs = _reports(caplog)
     assert len(msgs) == 1 and str(path) in msgs[0] and "damaged" in msgs[0] and "\n" not in msgs[0], msgs
     assert fe_calls == [0]  # only the damaged gear is recomputed
+    if damage == "data_changed_digest_kept":
+        assert "digest" in msgs[0]
     _same_as_clean(ltca, clean)
     # the recomputed entry replaced the damaged one: the next run reads both without FE or warning
     read_arrays(path)
@@ -220,6 +222,9 @@ def test_entry_roundtrip_is_exact(tmp_path):
         assert back[k].dtype == v.dtype
     with zipfile.ZipFile(tmp_path / "sub" / "e.npz") as z:
         assert fecache.DIGEST_FIELD + ".npy" in z.namelist()
+    mask = os.umask(0o022)
+    os.umask(mask)
+    assert (tmp_path / "sub" / "e.npz").stat().st_mode & 0o777 == 0o666 & ~mask  # readable like any new file
 
 
 def test_key_covers_version_material_geometry_mesh_not_micro(pair, monkeypatch):
