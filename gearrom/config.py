@@ -251,6 +251,8 @@ def _read_toml(path: Path) -> dict[str, Any]:
             return tomllib.load(fh)
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{path}: invalid TOML: {exc}") from None
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"{path}: invalid TOML: not UTF-8 text (byte {exc.start})") from None
     except OSError as exc:
         raise ConfigError(f"{path}: cannot read config: {exc.strerror}") from None
 
@@ -293,12 +295,17 @@ def _locate(ref: str | Path, referrer: Path | None = None) -> Path:
     path = Path(text).expanduser()
     if referrer is not None and not path.is_absolute():
         path = referrer.parent / path
-    if path.is_file():
+    try:
+        is_file, is_dir = path.is_file(), path.is_dir()
+    except (OSError, ValueError) as exc:  # name too long, embedded NUL...
+        reason = getattr(exc, "strerror", None) or str(exc)
+        raise _not_found(text, f"not a usable path ({reason})", referrer) from None
+    if is_file:
         return path
-    if _is_bare_name(text) and text in bundled_names():
-        return _bundled_path(text)
     bare = _is_bare_name(text)
-    if path.is_dir():
+    if bare and text in bundled_names():
+        return _bundled_path(text)
+    if is_dir:
         why = f"{path} is a directory, not a config file"
         raise _not_found(text, why + (f", and {text!r} is no bundled config" if bare else ""), referrer)
     if referrer is not None:

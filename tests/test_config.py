@@ -197,3 +197,19 @@ def test_type_and_range_errors_name_the_key(tmp_path, text, pattern):
 def test_empty_config_name_is_an_error(name):
     with pytest.raises(ConfigError, match=r"config name is empty: give a bundled name \(.*thesis-spur"):
         load_config(name)
+
+
+def test_non_utf8_file_is_a_config_error(tmp_path):
+    p = tmp_path / "c.toml"
+    p.write_bytes(b'name = "\xff\xfe"\n')
+    with pytest.raises(ConfigError, match=r"c.toml: invalid TOML: not UTF-8 text"):
+        load_config(p)
+
+
+def test_unusable_path_is_a_config_error(tmp_path):
+    with pytest.raises(ConfigError, match=r"not a usable path"):
+        load_config("x" * 300)
+    p = tmp_path / "c.toml"
+    p.write_text('extends = "' + "y" * 300 + '"\n')
+    with pytest.raises(ConfigError, match=r"c.toml: extends = 'yyy.*not a usable path"):
+        load_config(p)
