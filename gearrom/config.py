@@ -144,7 +144,7 @@ LIMITS: dict[str, Limit] = {
     "normal_module_mm": Limit(0.0, 100.0, why="a module above 100 mm is a unit mistake (ISO 54 ends at 50 mm)"),
     "normal_pressure_angle_deg": Limit(0.0, 45.0, hi_closed=False, why="involute basic rack"),
     "helix_angle_deg": Limit(0.0, 60.0, lo_closed=True, hi_closed=False,
-                             why="the direction of the helix is given by 'hand'"),
+                             why="its direction is given by 'hand'"),
     "center_distance_mm": _SIZE,
     "center_distance_tolerance_um": _MODIFICATION,
     "min_tip_thickness_factor": Limit(0.0, 1.0, lo_closed=True, why="a fraction of the module"),
@@ -186,6 +186,8 @@ def _num_text(value: float | None) -> str:
 
 def unit_of(key: str) -> str:
     """Unit of a config key from its suffix (``"mm"`` for ``face_width_mm``), ``""`` when dimensionless."""
+    if key.startswith("rpm"):
+        return "rpm"
     for suffix, unit in UNIT_SUFFIXES:
         if key.endswith(suffix):
             return unit

@@ -213,3 +213,15 @@ def test_unusable_path_is_a_config_error(tmp_path):
     p.write_text('extends = "' + "y" * 300 + '"\n')
     with pytest.raises(ConfigError, match=r"c.toml: extends = 'yyy.*not a usable path"):
         load_config(p)
+
+
+def test_docs_list_every_range():
+    """docs/config.md shows the range of every range-checked key as the loader checks it."""
+    from pathlib import Path
+
+    from gearrom import config as c
+
+    doc = (Path(__file__).resolve().parents[1] / "docs" / "config.md").read_text()
+    for key, limit in c.LIMITS.items():
+        unit = c.unit_of(key)
+        assert f"| `{key}` | {limit.describe()}{' ' + unit if unit else ''} |" in doc, key

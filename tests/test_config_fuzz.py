@@ -32,7 +32,7 @@ GEARS = ("input_gear", "output_gear")
 def documented_keys() -> list[tuple[str, str]]:
     """``(dotted key, type)`` of every row of the key tables in docs/config.md."""
     rows = re.findall(r"^\|\s*`([A-Za-z0-9_.]+)`\s*\|\s*(\w+)\s*\|", DOC.read_text(), flags=re.M)
-    return [(key, typ) for key, typ in rows]
+    return [(key, typ) for key, typ in rows if typ in ("str", "int", "float", "bool", "list")]
 
 
 def documented_sections() -> list[str]:
