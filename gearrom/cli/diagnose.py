@@ -15,7 +15,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("measurements", metavar="MEASUREMENT.json", nargs="+", type=Path,
                         help="one or more gearrom.measurement/1 files of the same rig (different speeds/loads)")
     parser.add_argument("--json", dest="json_out", metavar="OUT", help="write the report JSON here ('-' = stdout)")
-    parser.add_argument("--report", metavar="DIR", type=Path,
+    parser.add_argument("--report", metavar="DIR",
                         help="write diagnosis.json, summary.txt and before/after plots (run_<i>.png) into DIR")
     parser.add_argument("--save", metavar="NPZ", type=Path, help="save the full result (traces + JSON)")
     parser.add_argument("--simulator", choices=("auto", "rom", "torsional"), default="auto",

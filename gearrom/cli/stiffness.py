@@ -30,7 +30,7 @@ def add_args(parser) -> None:
     parser.add_argument("--helical-model", choices=("3d", "slices"), default="3d",
                         help="helical pairs: 3D FE compliances (default) or uncoupled plane-strain slices")
     parser.add_argument("--no-cache", action="store_true", help="do not read or write the FE cache")
-    parser.add_argument("--cache-dir", type=Path, help="FE cache directory (default $GEARROM_CACHE_DIR/fe or ~/.cache/gearrom/fe)")
+    parser.add_argument("--cache-dir", help="FE cache directory (default $GEARROM_CACHE_DIR/fe or ~/.cache/gearrom/fe)")
 
 
 def check_args(args) -> None:

@@ -19,7 +19,7 @@ def add_args(parser) -> None:
                         help="input speeds [rev/min] (default 1250 2000)")
     parser.add_argument("--json", type=Path, metavar="OUT", help="write the report as JSON")
     parser.add_argument("--plot", type=Path, metavar="PNG", help="overlay TE vs input angle and the spectra")
-    parser.add_argument("--fe-dir", type=Path, metavar="DIR",
+    parser.add_argument("--fe-dir", metavar="DIR",
                         help="folder of the stored explicit FE results spur_<rpm>rpm.npz/.json (default: validation/)")
     parser.add_argument("--fresh", action="store_true",
                         help="run a coarse explicit FE now (0.3 mm outline, 3 recorded mesh periods; minutes per speed)")
