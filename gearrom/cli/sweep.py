@@ -17,7 +17,9 @@ import time
 import warnings
 from pathlib import Path
 
-from gearrom.config import load_config
+import numpy as np
+
+from gearrom.config import GearConfig, load_config
 from gearrom.errors import ConfigError
 
 NAME = "sweep"
@@ -63,7 +65,7 @@ def sweep_settings(cfg, args) -> dict:
     return out
 
 
-def _check_repeats(rpms, st: dict, cfg, args) -> None:
+def _check_repeats(rpms: np.ndarray, st: dict, cfg: GearConfig, args: argparse.Namespace) -> None:
     """Reject a speed given twice, naming where the speeds came from (``--rpm`` or ``sweep.rpm``)."""
     from gearrom.rom.sweep import repeated_speeds
 
@@ -75,7 +77,7 @@ def _check_repeats(rpms, st: dict, cfg, args) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from gearrom.rom.sweep import parse_rpm, run_sweep, write_text_atomic
+    from gearrom.rom.sweep import parse_rpm, run_sweep, write_bytes_atomic, write_text_atomic
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -97,7 +99,7 @@ def run(args: argparse.Namespace) -> int:
         buf = io.BytesIO()
         fig.savefig(buf, format="png", dpi=120)
         plt.close(fig)
-        _write_bytes_atomic(buf.getvalue(), args.out / name)
+        write_bytes_atomic(buf.getvalue(), args.out / name)
     n_loss = sum(s["contact_loss"] for s in res.summary)
     worst = max(res.summary, key=lambda s: s["dte_ptp_um"])
     sys.stdout.write(
@@ -107,17 +109,3 @@ def run(args: argparse.Namespace) -> int:
         f"  written: {args.out}/summary.json, sweep.nc, waterfall.png, gmf_vs_speed.png, speeds/\n")
     return 0
 
-
-def _write_bytes_atomic(data: bytes, path: Path) -> None:
-    """Write ``data`` through a uniquely named temporary file in the same directory and rename it."""
-    import os
-    import tempfile
-
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise

@@ -158,6 +158,28 @@ def test_interrupted_write_keeps_the_previous_file(tmp_path, monkeypatch):
     assert SweepResult.load(target).rpm.tolist() == [1000.0]
 
 
+def test_cli_interrupted_outputs_keep_the_previous_files(tmp_path, monkeypatch):
+    from matplotlib.figure import Figure
+
+    out = tmp_path / "o"
+    args = ["sweep", "thesis-rig", "--rpm", "1000", "--out", str(out), "--revs", "0.25", "--no-progress",
+            "--processes", "1", "--no-linear"]
+    assert main(args) == 0
+    before = {f: (out / f).read_bytes() for f in ("summary.json", "waterfall.png", "gmf_vs_speed.png")}
+
+    def broken(self, fname, *a, **kw):
+        if isinstance(fname, (str, Path)):
+            Path(fname).write_bytes(b"half a picture")
+        else:
+            fname.write(b"half a picture")
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(Figure, "savefig", broken)
+    assert main(args) == 130
+    assert {f: (out / f).read_bytes() for f in before} == before
+    assert not [p.name for p in out.iterdir() if p.name.endswith(".part")]
+
+
 def test_concurrent_writers_of_one_file_do_not_collide(tmp_path):
     from gearrom.rom.sweep import write_netcdf_atomic
 
