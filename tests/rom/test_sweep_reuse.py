@@ -63,6 +63,22 @@ def test_rewritten_excitation_table_is_not_reused(tmp_path, count_runs):
     np.testing.assert_array_equal(third.data["dte_sensor"], first.data["dte_sensor"])
 
 
+def test_table_rewritten_during_the_run_is_not_stored(tmp_path, monkeypatch):
+    from gearrom.errors import ModelError
+
+    cfg = _table_config(tmp_path)
+    real = simulate_mod.simulate_run
+
+    def rewrite_then_run(*args, **kwargs):
+        _table_config(tmp_path, scale_e=3.0)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(simulate_mod, "simulate_run", rewrite_then_run)
+    with pytest.raises(ModelError, match="changed during the sweep"):
+        run_sweep(cfg, [1000.0], tmp_path / "out", **FAST)
+    assert list((tmp_path / "out" / "speeds").iterdir()) == []
+
+
 def test_package_version_is_part_of_the_key(tmp_path, count_runs, monkeypatch):
     out = tmp_path / "out"
     run_sweep("thesis-rig", [1000.0], out, **FAST)
