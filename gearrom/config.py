@@ -152,8 +152,9 @@ LIMITS: dict[str, Limit] = {
     "poisson_ratio": Limit(-1.0, 0.5, hi_closed=False, why="stable isotropic elastic material"),
     "density_kg_per_m3": Limit(0.0, 1e5, why="denser than any material above 1e5 kg/m^3"),
     "teeth": Limit(MIN_TEETH, MAX_TEETH, lo_closed=True,
-                   why=f"fewer than {MIN_TEETH} teeth cannot mesh continuously; more than {MAX_TEETH} make the "
-                       "mesh period too short for the dynamic model to resolve"),
+                   why=f"fewer than {MIN_TEETH} teeth are outside involute gear practice; more than "
+                       f"{MAX_TEETH} is beyond any cylindrical gear, and the models sample every mesh period, "
+                       "so their cost grows with the tooth count"),
     "profile_shift": Limit(-1.5, 2.0, hi_closed=False, why="beyond it the tooth is undercut away or pointed"),
     "face_width_mm": _SIZE, "bore_diameter_mm": _SIZE, "tip_diameter_mm": _SIZE, "root_diameter_mm": _SIZE,
     "root_form_diameter_mm": _SIZE,

@@ -13,10 +13,10 @@ from gearrom.errors import ConfigError
 
 Hand = Literal["right", "left", "spur"]
 
-#: Fewest teeth accepted: below it no standard basic rack gives a contact ratio of 1 without undercut.
+#: Fewest teeth accepted: fewer are outside involute gear practice (undercut or pointed teeth).
 MIN_TEETH = 5
-#: Most teeth accepted: beyond it the mesh frequency z n / 60 at rig speeds exceeds what the dynamic
-#: model's time step resolves, and the gear's inertia dwarfs the rest of the drivetrain.
+#: Most teeth accepted: beyond any cylindrical gear, so a larger count is a typing or unit mistake.
+#: The excitation tables and the sweep sample every mesh period, so their cost grows with z.
 MAX_TEETH = 1000
 
 
