@@ -216,7 +216,8 @@ class GearConfig:
     operating : Operating
         Nominal operating point.
     raw : dict
-        The merged TOML content (after ``extends``), units as written.
+        The merged TOML content (after ``extends``), units as written; relative path-valued keys
+        (:data:`PATH_KEYS`) made absolute against the file that holds them.
     source : Path or None
         File the config came from.
     """
@@ -326,8 +327,7 @@ def _anchor_paths(data: dict[str, Any], path: Path) -> None:
         value = table.get(key)
         if isinstance(value, str) and value.strip() and value not in keywords:
             target = Path(value).expanduser()
-            if not target.is_absolute():
-                table[key] = str(path.parent / target)
+            table[key] = str(target if target.is_absolute() else path.parent / target)
 
 
 def resolve(name_or_path: str | Path, _seen: tuple[Path, ...] = (), _referrer: Path | None = None

@@ -156,3 +156,10 @@ def test_cli_empty_name_exits_2_with_one_line(capsys):
     assert main(["geometry", ""]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("gearrom geometry: error: config name is empty")
+
+
+def test_path_valued_key_with_home_is_expanded(tmp_path, monkeypatch):
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    p = tmp_path / "c.toml"
+    p.write_text(SPUR + '[rom]\nexcitation = "~/tables/k.nc"\n')
+    assert Path(load_config(p).section("rom")["excitation"]) == tmp_path / "home" / "tables" / "k.nc"
