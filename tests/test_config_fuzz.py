@@ -90,7 +90,8 @@ BASE, _ = cfgmod.resolve("thesis-helical")
 
 scalars = st.one_of(
     st.text(max_size=12),
-    st.sampled_from(["x" * 300, "a/" * 200, ".", "..", "~", "thesis-spur", "analytical", "thesis-spur.toml"]),
+    st.sampled_from(["x" * 300, "a/" * 200, ".", "..", "~", "thesis-spur", "analytical", "thesis-spur.toml",
+                    "18 mm", "1.5mm", "210 GPa", "0x10", "1_000"]),
     st.booleans(),
     st.integers(min_value=-(2**63), max_value=2**63 - 1),
     st.floats(allow_nan=True, allow_infinity=True),
