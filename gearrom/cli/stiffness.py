@@ -25,7 +25,12 @@ def add_args(parser) -> None:
                         help="helical pairs: plot the contact pattern over the mesh cycle (first torque)")
     parser.add_argument("--save", type=Path, metavar="NC", help="write the MeshExcitation table (NetCDF)")
     parser.add_argument("--vtu", type=Path, metavar="VTU", help="write the loaded state at theta = 0 (first torque) for ParaView")
-    parser.add_argument("--inp", type=Path, metavar="INP", help="write the Abaqus/CalculiX deck at theta = 0 (first torque)")
+    parser.add_argument("--inp", type=Path, metavar="INP",
+                        help="write the Abaqus/CalculiX deck at theta = 0 (first torque); solve it with "
+                             "'ccx -i STEM' and read the static TE with 'gearrom ccx-te INP'")
+    parser.add_argument("--inp-mesh", choices=("deck", "analysis"), default="deck",
+                        help="mesh of the spur deck: 'deck' (coarser, ccx solves it in minutes; default) or "
+                             "'analysis' (the LTCA's own mesh); helical decks use the 3D LTCA mesh")
     parser.add_argument("--mesh-factor", type=float, default=1.0, help="scale all mesh sizes (refinement studies)")
     parser.add_argument("--helical-model", choices=("3d", "slices"), default="3d",
                         help="helical pairs: 3D FE compliances (default) or uncoupled plane-strain slices")
@@ -111,5 +116,10 @@ def run(args) -> int:
         if args.vtu:
             export_vtu(ltca, 0.0, float(torques[0]), args.vtu, settings)
         if args.inp:
-            export_inp(cfg.pair, 0.0, float(torques[0]), args.inp, settings)
+            t0 = float(torques[0])
+            deck_settings = settings if args.inp_mesh == "analysis" and not cfg.pair.is_helical else None
+            info = export_inp(cfg.pair, 0.0, t0, args.inp, deck_settings, mesh_factor=args.mesh_factor,
+                              ltca_ste=ltca.solve(0.0, t0).ste)
+            sys.stdout.write(f"deck {info.path}: {info.nodes} nodes, {info.elements} elements; solve with "
+                             f"'ccx -i {info.path.with_suffix('')}', then 'gearrom ccx-te {info.path}'\n")
     return 0

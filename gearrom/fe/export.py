@@ -9,7 +9,8 @@
   both gears as a plane-strain slab of thickness b (one layer of 15-node wedges C3D15 extruded
   from the quadratic triangles, u_z = 0), the input bore on a rigid body (REF/ROT node) loaded by
   the driving moment, the output bore clamped, a surface-to-surface contact pair on the flanks of
-  the teeth -1..1 (penalty, linear pressure-overclosure) and a static step. CalculiX (``ccx``) runs it.
+  the teeth -1..1 (penalty, linear pressure-overclosure), a contact-closure step and the load step
+  (:mod:`gearrom.fe.ccx`). CalculiX (``ccx``) runs it as written; ``gearrom ccx-te`` reads the TE.
 """
 from __future__ import annotations
 
@@ -22,6 +23,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from gearrom.fe.ccx import closure_rotation, deck_steps, readout_line, write_deck
 from gearrom.fe.compliance import patch_operator
 from gearrom.fe.elastic import ElasticBody2D, FacetIndex
 from gearrom.fe.fullcontact import placement
@@ -31,6 +33,10 @@ if TYPE_CHECKING:
     from gearrom.fe.export3d import Inp3DInfo
 
 log = logging.getLogger(__name__)
+
+#: mesh of the spur deck: coarser than the LTCA's (a 3D slab of quadratic wedges is ~100 times the
+#: 2D problem), fine enough on the flanks of the teeth -1..1 for a static TE cross-check
+DECK_MESH_2D = MeshSettings(flank_size=0.06e-3, tooth_size=0.6e-3, body_size=4e-3, refined_teeth=1)
 
 
 def _rot(phi: float) -> np.ndarray:
@@ -117,7 +123,8 @@ def export_vtu(ltca, theta: float, torque: float, path: str | Path, settings: Me
 
 @dataclass(frozen=True)
 class InpInfo:
-    """What a runner needs to read the deck's result: the ROT node id and r_b1 [mm]."""
+    """What a runner needs to read the deck's result: the ROT node id and r_b1 [mm] (the deck's
+    readout line holds the same, :func:`gearrom.fe.ccx.read_static_te`)."""
 
     path: Path
     rot_node: int
@@ -129,14 +136,20 @@ class InpInfo:
 
 def export_inp(pair, theta: float, torque: float, path: str | Path, settings=None,
                penalty_MPa_per_mm: float = 1e7, rotation: float | None = None, *, helical_model: str = "3d",
-               mesh_factor: float = 1.0, contact: str = "surface") -> InpInfo | Inp3DInfo:
+               mesh_factor: float = 1.0, contact: str = "surface",
+               ltca_ste: float | None = None) -> InpInfo | Inp3DInfo:
     """Write the Abaqus/CalculiX deck of the pair at ``theta`` [rad] and output ``torque`` [N m].
 
-    Spur pairs: the plane-strain slab (module doc), ``settings`` a :class:`MeshSettings`; returns
-    :class:`InpInfo`. With ``rotation`` [rad] the input reference node is turned by that (clockwise
-    negative) angle instead of loaded by the moment (displacement control: no rigid-body mode
-    before contact closes, which CalculiX's static contact needs); the printed RF of the ROT node
-    is then the transmitted moment.
+    The deck solves as written: a contact-closure step with a prescribed rotation, then the moment
+    (:mod:`gearrom.fe.ccx`); its comment lines say where the static TE is read. ``ltca_ste`` [m],
+    the LTCA's static TE at this position and torque, is recorded in the readout line so that
+    ``gearrom ccx-te`` reports the ratio.
+
+    Spur pairs: the plane-strain slab (module doc), ``settings`` a :class:`MeshSettings` (default
+    :data:`DECK_MESH_2D` x ``mesh_factor``); returns :class:`InpInfo`. With ``rotation`` [rad] the
+    deck has one step in which the input reference node is turned by that (clockwise negative)
+    angle instead of loaded by the moment (displacement control); the printed RF of the ROT node is
+    then the transmitted moment.
 
     Helical pairs: the 3D sector model (:func:`gearrom.fe.export3d.export_inp_3d`; ``settings`` a
     :class:`~gearrom.fe.mesh3d.Mesh3DSettings`, 2D settings are ignored as by :func:`export_vtu`,
@@ -159,8 +172,8 @@ def export_inp(pair, theta: float, torque: float, path: str | Path, settings=Non
                         "(default Mesh3DSettings x mesh_factor)", type(settings).__name__)
             settings = None
         return export_inp_3d(pair, theta, torque, path, settings, penalty_MPa_per_mm=penalty_MPa_per_mm,
-                             rotation=rotation, mesh_factor=mesh_factor, contact=contact)
-    s = settings or MeshSettings(refined_teeth=1)
+                             rotation=rotation, mesh_factor=mesh_factor, contact=contact, ltca_ste=ltca_ste)
+    s = settings or (DECK_MESH_2D.scaled(mesh_factor) if mesh_factor != 1.0 else DECK_MESH_2D)
     if s.refined_teeth < 1:
         s = dataclasses.replace(s, refined_teeth=1)
     frames = _frames(pair, theta)
@@ -232,52 +245,15 @@ def export_inp(pair, theta: float, torque: float, path: str | Path, settings=Non
         lines += [f"*MATERIAL, NAME=STEEL{i + 1}", "*ELASTIC", f"{E[i].youngs_modulus * 1e-6:.9g},{E[i].poisson_ratio:.9g}",
                   f"*SOLID SECTION, ELSET=EG{i + 1}, MATERIAL=STEEL{i + 1}"]
     lines += ["*SURFACE, NAME=SLAVE1, TYPE=ELEMENT", *surf[0], "*SURFACE, NAME=MASTER2, TYPE=ELEMENT", *surf[1]]
-    lines += ["*RIGID BODY, NSET=BORE1, REF NODE=%d, ROT NODE=%d" % (ref, rot),
-              "*BOUNDARY", f"{ref},1,3", f"{rot},1,2", "BORE2,1,3"]
+    lines += ["*RIGID BODY, NSET=BORE1, REF NODE=%d, ROT NODE=%d" % (ref, rot)]
     # plane strain: u_z = 0 everywhere except on the rigid input bore (constrained through the rigid body)
     keep = np.setdiff1d(np.arange(1, nid + 1), bore_sets[0])
     lines += ["*NSET, NSET=NPLANE"] + [",".join(str(x) for x in keep[k:k + 16]) for k in range(0, keep.size, 16)]
-    lines += ["*BOUNDARY", "NPLANE,3,3"]
-    lines += contact_and_step(f"{penalty_MPa_per_mm:.6g},0.25", "SURFACE TO SURFACE", rot, -T1, rotation)
+    # supports: input centre held in x, y, z and its tilts; output bore clamped; the slab's u_z
+    supports = [f"{ref},1,3", f"{rot},1,2", "BORE2,1,3", "NPLANE,3,3"]
+    lines += readout_line(rot, 1 if rotation is not None else 2, pair.rb[0] * 1e3, 1e-3 * pair.z[1] / pair.z[0],
+                          ltca_ste)
+    lines += deck_steps(f"{penalty_MPa_per_mm:.6g},0.25", "SURFACE TO SURFACE", rot, -T1, supports,
+                        closure_rotation(pair, torque, pair.rb[0]), rotation)
     path = write_deck(path, lines)
     return InpInfo(path=path, rot_node=rot, rb1_mm=pair.rb[0] * 1e3, moment_Nmm=-T1, nodes=nid + 2, elements=eid)
-
-
-def contact_and_step(behaviour: str, contact_type: str, load_node: int, moment_Nmm: float,
-                     rotation: float | None) -> list[str]:
-    """Deck lines shared by the spur and helical decks: contact SLAVE1/MASTER2 with a linear
-    pressure-overclosure ``behaviour`` line, and the static step loaded by ``moment_Nmm`` about z on
-    ``load_node`` (or, with ``rotation`` [rad], that rotation prescribed), printing the NROT set."""
-    load = (["*CLOAD", f"{load_node},3,{moment_Nmm:.9g}"] if rotation is None
-            else ["*BOUNDARY", f"{load_node},3,3,{rotation:.12g}"])
-    return ["*SURFACE INTERACTION, NAME=SI", "*SURFACE BEHAVIOR, PRESSURE-OVERCLOSURE=LINEAR", behaviour,
-            f"*CONTACT PAIR, INTERACTION=SI, TYPE={contact_type}", "SLAVE1,MASTER2",
-            "*STEP, INC=200", "*STATIC", "1.0,1.0,1e-4,1.0", *load, "*NODE PRINT, NSET=NROT", "U,RF", "*END STEP"]
-
-
-def write_deck(path: str | Path, lines: list[str]) -> Path:
-    """Write the deck ``lines`` to ``path`` (folders created)."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text("\n".join(lines) + "\n")
-    return path
-
-
-def read_ccx_rotation(dat_path: str | Path, rot_node: int) -> tuple[float, float]:
-    """(rotation about z [rad], moment about z [N mm]) of the ROT node: the last U and RF blocks of a ccx .dat."""
-    value, block, out = None, None, {}
-    for line in Path(dat_path).read_text().splitlines():
-        low = line.strip().lower()
-        if low.startswith("displacements"):
-            block = "U"
-        elif low.startswith("forces"):
-            block = "RF"
-        parts = line.split()
-        if block and len(parts) == 4 and parts[0] == str(rot_node):
-            out[block] = float(parts[3])
-    value = (out["U"], out.get("RF", float("nan"))) if "U" in out else None
-    if value is None:
-        from gearrom.errors import SolverError
-
-        raise SolverError(f"{dat_path}: no result for node {rot_node} (did ccx converge?)")
-    return value

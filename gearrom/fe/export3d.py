@@ -19,7 +19,8 @@ axes +z, face widths centred on z = 0: the frame of :class:`gearrom.fe.loaded3d.
   tooth ``p`` of gear 2, :class:`~gearrom.fe.helical3d.Helical3DLTCA`), a ``*CONTACT PAIR``
   (face-to-face penalty by default, CalculiX's advice for quadratic elements; node-to-surface on
   request) with a linear pressure-overclosure ``*SURFACE BEHAVIOR``;
-* a linear-geometry ``*STATIC`` step and ``*NODE PRINT`` of both rotation nodes (U, RF).
+* linear-geometry ``*STATIC`` steps (contact closure by a prescribed rotation, then the moment,
+  :mod:`gearrom.fe.ccx`) and ``*NODE PRINT`` of both rotation nodes (U, RF).
 
 The static TE is read back as in the spur deck: ``STE = -phi_2 r_b2`` on the transverse line of
 action (``phi_2`` the output rotation about +z, negative when the output lags; the input is held),
@@ -91,7 +92,7 @@ class Inp3DInfo:
     def static_te(self, dat_path: str | Path) -> tuple[float, float]:
         """(static TE [m] on the transverse line of action, positive when the output lags; transmitted
         output torque [N m]) from the ccx ``.dat`` of this deck."""
-        from gearrom.fe.export import read_ccx_rotation
+        from gearrom.fe.ccx import read_ccx_rotation
 
         rot, moment = read_ccx_rotation(dat_path, self.rot_node)
         return -rot * self.rb_mm * 1e-3, abs(moment) * 1e-3
@@ -186,7 +187,7 @@ def _gear_block(pair, gear: int, mesh: Mesh3D, frame, teeth, first_node: int, fi
 
 def export_inp_3d(pair, theta: float, torque: float, path: str | Path, settings: Mesh3DSettings | None = None,
                   penalty_MPa_per_mm: float = 1e7, rotation: float | None = None, mesh_factor: float = 1.0,
-                  contact: str = "surface", margin: float = 0.1e-3) -> Inp3DInfo:
+                  contact: str = "surface", margin: float = 0.1e-3, ltca_ste: float | None = None) -> Inp3DInfo:
     """Write the CalculiX/Abaqus deck of the 3D helical model at ``theta`` [rad] (see module doc).
 
     Parameters
@@ -205,14 +206,17 @@ def export_inp_3d(pair, theta: float, torque: float, path: str | Path, settings:
     penalty_MPa_per_mm : float
         Slope of the linear pressure-overclosure law [MPa/mm].
     rotation : float, optional
-        Prescribed rotation of the output gear about +z [rad] (negative: lagging) instead of the
-        moment; the printed RF of the rotation node is then the transmitted moment.
+        Displacement control: one step with this rotation of the output gear about +z [rad]
+        (negative: lagging) prescribed instead of the contact-closure and moment steps; the printed
+        RF of the rotation node is then the transmitted moment.
     mesh_factor : float
         Every mesh length times this (``settings.scaled``; thesis-helical meshes cleanly up to 1.5).
     contact : {"surface", "node"}
         Face-to-face (``SURFACE TO SURFACE``) or node-to-face (``NODE TO SURFACE``) penalty contact.
     margin : float
         Roll length [m] beyond the active flanks within which a pair still gets contact surfaces.
+    ltca_ste : float, optional
+        The LTCA's static TE at this position and torque [m], recorded in the readout line.
     """
     if not pair.is_helical:
         raise ModelError("export_inp_3d: the 3D deck is for helical pairs (spur pairs: gearrom.fe.export.export_inp)")
@@ -228,7 +232,8 @@ def export_inp_3d(pair, theta: float, torque: float, path: str | Path, settings:
         raise ModelError(f"pairs {pairs} can touch at theta = {theta:.6g} rad but the elastic sector has teeth "
                          f"-{s.teeth}..{s.teeth}: use Mesh3DSettings(teeth=...) >= {max(map(abs, pairs), default=0)}")
     # the spur deck's and LoadedPair3D's placement (lifted to 3D) and the deck lines both decks share
-    from gearrom.fe.export import _frames, contact_and_step, write_deck
+    from gearrom.fe.ccx import closure_rotation, deck_steps, readout_line, write_deck
+    from gearrom.fe.export import _frames
 
     frames = [(np.block([[R2, np.zeros((2, 1))], [np.zeros((1, 2)), np.ones((1, 1))]]), np.append(O2, 0.0))
               for R2, O2 in _frames(pair, theta)]
@@ -263,11 +268,13 @@ def export_inp_3d(pair, theta: float, torque: float, path: str | Path, settings:
         for el, fa in blocks[g]["faces"]:
             L += [f"{e},S{f}" for e, f in zip(el, fa)]
     L += [f"*RIGID BODY, NSET=BORE1, REF NODE={ref1}, ROT NODE={rot1}",
-          f"*RIGID BODY, NSET=BORE2, REF NODE={ref2}, ROT NODE={rot2}",
-          "*BOUNDARY", f"{ref1},1,3", f"{rot1},1,3", f"{ref2},1,3", f"{rot2},1,2"]
+          f"*RIGID BODY, NSET=BORE2, REF NODE={ref2}, ROT NODE={rot2}"]
+    # supports: input gear held; output centre held in x, y, z and its tilts (its rotation is loaded)
+    supports = [f"{ref1},1,3", f"{rot1},1,3", f"{ref2},1,3", f"{rot2},1,2"]
     behaviour = f"{penalty_MPa_per_mm:.6g}" if contact == "surface" else f"{penalty_MPa_per_mm:.6g},0.25"
-    L += contact_and_step(behaviour, "SURFACE TO SURFACE" if contact == "surface" else "NODE TO SURFACE", rot2, M2,
-                          rotation)
+    L += readout_line(rot2, 1 if rotation is not None else 2, pair.rb[1] * 1e3, 1e-3, ltca_ste)
+    L += deck_steps(behaviour, "SURFACE TO SURFACE" if contact == "surface" else "NODE TO SURFACE", rot2, M2,
+                    supports, closure_rotation(pair, torque, pair.rb[1]), rotation)
     path = write_deck(path, L)
     log.info("wrote %s: %d nodes, %d C3D10, pairs %s", path, nid + 4, eid, pairs)
     return Inp3DInfo(path=path, rot_node=rot2, rb_mm=pair.rb[1] * 1e3, moment_Nmm=M2 if rotation is None else 0.0,

@@ -3,7 +3,8 @@
 References: the VTU displacements must reproduce the LTCA approach (the influence-coefficient
 solution itself: delta = sum of the surface normal displacements at a loaded point); the ccx run
 is an independent FE code (CalculiX 2.x, penalty surface-to-surface contact on quadratic wedges)
-whose static TE must agree with the LTCA within 5 % (issue acceptance).
+whose static TE must agree with the LTCA within 5 %; it runs the deck exactly as the command line
+writes it.
 """
 from __future__ import annotations
 
@@ -16,7 +17,9 @@ import numpy as np
 import pytest
 
 from gearrom.config import load_config
-from gearrom.fe.export import export_inp, export_vtu, read_ccx_rotation
+from gearrom.errors import SolverError
+from gearrom.fe.ccx import read_ccx_rotation, read_readout, read_static_te
+from gearrom.fe.export import export_inp, export_vtu
 from gearrom.fe.mesh2d import MeshSettings
 from gearrom.fe.sweep import build_ltca
 
@@ -60,18 +63,66 @@ def test_inp_deck_has_the_model(model, tmp_path):
     assert info.moment_Nmm == pytest.approx(-120e3 * 32 / 41)
 
 
+def test_deck_steps_close_contact_then_load(model, tmp_path):
+    """The written deck: a contact-closure step with a prescribed rotation of the input's ROT node of
+    the moment's sign and below the static TE estimate, then OP=NEW (supports restated) and the moment."""
+    pair, _ = model
+    info = export_inp(pair, 0.1, 120.0, tmp_path / "a.inp", CCX_MESH, ltca_ste=10e-6)
+    text = info.path.read_text()
+    steps = text.split("*STEP")[1:]
+    assert len(steps) == 2
+    assert "*CLOAD" not in steps[0] and f"{info.rot_node},3,3," in steps[0]
+    closure = float(steps[0].split(f"{info.rot_node},3,3,")[1].split()[0])
+    # ISO 6336 static TE estimate (F_bt / c_gamma b) on the input base circle: 5-40 % of it, clockwise
+    from gearrom.fe.iso6336 import mesh_stiffness
+
+    ste_iso = 120.0 / pair.rb[1] / (mesh_stiffness(pair) * pair.face_width)
+    assert -0.4 * ste_iso / pair.rb[0] < closure < -0.05 * ste_iso / pair.rb[0]
+    assert "*BOUNDARY, OP=NEW" in steps[1] and f"{info.rot_node},3,{info.moment_Nmm:.9g}" in steps[1]
+    for support in (f"{info.rot_node},1,2", "BORE2,1,3", "NPLANE,3,3"):
+        assert support in steps[0] and support in steps[1]
+    r = read_readout(info.path)
+    assert (r.node, r.steps, r.ltca_ste_um) == (info.rot_node, 2, pytest.approx(10.0))
+    assert r.te_um_per_rad == pytest.approx(-pair.rb[0] * 1e6)
+
+
+def test_readout_rejects_an_unconverged_last_step(tmp_path):
+    """A .dat whose last block is step 1 (step 2 did not converge) must not be read as the result."""
+    dat = tmp_path / "d.dat"
+    dat.write_text(" displacements (vx,vy,vz) for set NROT and time  0.1000000E+01\n\n    7  0.0  0.0 -2.0E-04\n")
+    assert read_ccx_rotation(dat, 7) == (-2e-4, pytest.approx(float("nan"), nan_ok=True))
+    with pytest.raises(SolverError, match="step time 1"):
+        read_ccx_rotation(dat, 7, end_time=2.0)
+    with pytest.raises(SolverError, match="no result for node 8"):
+        read_ccx_rotation(dat, 8)
+
+
+def test_ccx_te_errors(tmp_path):
+    """ccx-te on a file that is not a gearrom deck, or without a result: exit 2, one line."""
+    from gearrom.cli import main
+
+    bad = tmp_path / "x.inp"
+    bad.write_text("*HEADING\n")
+    assert main(["ccx-te", str(bad)]) == 2
+    assert main(["ccx-te", str(tmp_path / "missing.inp")]) == 2
+
+
 @pytest.mark.skipif(shutil.which("ccx") is None, reason="CalculiX (ccx, Debian package calculix-ccx) is not installed")
-def test_calculix_static_te_within_5_percent(model, tmp_path):
-    pair, ltca = model
-    theta = 0.5 * ltca.period
-    guess = ltca.solve(theta, 120.0)
-    info = export_inp(pair, theta, 120.0, tmp_path / "spur.inp", CCX_MESH, rotation=-guess.ste / pair.rb[0])
-    run = subprocess.run(["ccx", "-i", "spur"], cwd=tmp_path, capture_output=True, text=True, timeout=900,
-                         env={**os.environ, "OMP_NUM_THREADS": "2"})
-    assert run.returncode == 0, run.stdout[-2000:]
-    rot, moment = read_ccx_rotation(tmp_path / "spur.dat", info.rot_node)
-    torque_out = abs(moment) * 1e-3 * pair.z[1] / pair.z[0]
-    ste_ccx = -rot * pair.rb[0]
-    ste_ltca = ltca.solve(theta, torque_out).ste
-    print(f"ccx: {torque_out:.2f} N m, STE {ste_ccx * 1e6:.4f} um; LTCA {ste_ltca * 1e6:.4f} um")
-    assert ste_ccx == pytest.approx(ste_ltca, rel=0.05)
+def test_cli_deck_solves_with_calculix_within_5_percent(tmp_path, monkeypatch):
+    """Exactly the deck of ``gearrom stiffness thesis-spur --inp``, solved by ``ccx -i`` as written.
+
+    Reference: the LTCA's static TE at the deck's position (theta = 0) and torque (120 N m), which
+    the deck records; CalculiX is an independent FE code (penalty face-to-face contact on quadratic
+    wedges). Tolerance 5 % (issue acceptance; the meshes differ near the Hertz zone).
+    """
+    from gearrom.cli import main
+
+    monkeypatch.setenv("OMP_NUM_THREADS", "2")
+    deck = tmp_path / "d.inp"
+    assert main(["stiffness", "thesis-spur", "--positions", "4", "--inp", str(deck)]) == 0
+    run = subprocess.run(["ccx", "-i", "d"], cwd=tmp_path, capture_output=True, text=True, timeout=1800)
+    assert run.returncode == 0 and "Job finished" in run.stdout, run.stdout[-2000:]
+    res = read_static_te(deck)
+    assert res["torque_out_Nm"] == pytest.approx(120.0, rel=1e-6)
+    assert res["ste_um"] == pytest.approx(res["ltca_ste_um"], rel=0.05)
+    assert main(["ccx-te", str(deck)]) == 0

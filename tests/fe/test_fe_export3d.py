@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import shutil
+import subprocess
 import warnings
 
 import numpy as np
@@ -19,16 +20,12 @@ import pytest
 from gearrom.config import load_config
 from gearrom.errors import ModelError
 from gearrom.fe.export import export_inp
-from gearrom.fe.export3d import calculix_crosscheck
 from gearrom.fe.mesh2d import MeshSettings
 from gearrom.fe.mesh3d import Mesh3DSettings, sector_mesh
 
 DECK_MESH = Mesh3DSettings().scaled(1.5)  # the coarsest level gmsh meshes cleanly (2.0 gives slivers)
-# the LTCA's default mesh (68k C3D10 nodes, ccx ~8 min on 2 shared cores): ccx's STE is 4.99 % below the LTCA's,
-# right at the limit (5.6 % at the coarser level 1.25). Neither mesh resolves the Hertz zone (~0.1 mm) that the
-# LTCA adds analytically; the LTCA with that near field spread over 0.4 mm patches is within 0.4 % of ccx
-# (benchmarks/bench_inp_helical_ccx.py, the measured figures and their diagnosis)
-CCX_MESH = Mesh3DSettings()
+# the ccx deck of the command line is on the LTCA's default mesh, which does not resolve the Hertz zone the LTCA
+# adds analytically (benchmarks/bench_inp_helical_ccx.py and bench_inp_cli_ccx.py: figures and diagnosis)
 TORQUE = 120.0
 
 
@@ -159,9 +156,18 @@ def test_deck_errors(pair, tmp_path):
 
 @pytest.mark.slow
 @pytest.mark.skipif(shutil.which("ccx") is None, reason="CalculiX (ccx, Debian package calculix-ccx) is not installed")
-def test_calculix_static_te_within_5_percent(pair, tmp_path):
-    r = calculix_crosscheck(pair, tmp_path, CCX_MESH, theta_frac=0.3, torque=TORQUE)
-    print(f"ccx: {r['torque_out_Nm']:.2f} N m, STE {r['ste_ccx_um']:.4f} um; LTCA {r['ste_ltca_um']:.4f} um "
-          f"({r['nodes']} nodes, ccx {r['ccx_s']:.0f} s)")
-    assert set(r["ltca_loaded_pairs"]) <= set(r["pairs"])  # every pair the LTCA loads has contact surfaces
-    assert r["ste_ccx_um"] == pytest.approx(r["ste_ltca_um"], rel=0.05)
+def test_cli_deck_solves_with_calculix_within_5_percent(tmp_path, monkeypatch):
+    """Exactly the deck of ``gearrom stiffness thesis-helical --inp`` (theta = 0, 120 N m, the 3D LTCA's
+    mesh), solved by ``ccx -i`` as written (contact closure, then the moment); reference: the 3D
+    LTCA's static TE at that position and torque recorded in the deck; tolerance 5 % (issue acceptance)."""
+    from gearrom.cli import main
+    from gearrom.fe.ccx import read_static_te
+
+    monkeypatch.setenv("OMP_NUM_THREADS", "2")
+    deck = tmp_path / "h.inp"
+    assert main(["stiffness", "thesis-helical", "--positions", "4", "--inp", str(deck)]) == 0
+    run = subprocess.run(["ccx", "-i", "h"], cwd=tmp_path, capture_output=True, text=True, timeout=7200)
+    assert run.returncode == 0 and "Job finished" in run.stdout, run.stdout[-2000:]
+    res = read_static_te(deck)
+    assert res["torque_out_Nm"] == pytest.approx(TORQUE, rel=1e-6)
+    assert res["ste_um"] == pytest.approx(res["ltca_ste_um"], rel=0.05)
