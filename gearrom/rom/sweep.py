@@ -23,11 +23,16 @@ import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from gearrom.errors import ConfigError, ModelError
 from gearrom.excitation.table import netcdf_engine
+
+if TYPE_CHECKING:
+    from gearrom.config import GearConfig
+    from gearrom.rom.model import Drivetrain
 
 log = logging.getLogger(__name__)
 CHANNELS = ("dte_sensor", "dte_clutch", "delta", "force", "ste")
@@ -58,7 +63,7 @@ def parse_rpm(spec: str | float | list) -> np.ndarray:
     return arr
 
 
-def _model(config_ref: str, torque: float, key: str):
+def _model(config_ref: str, torque: float, key: str) -> "Drivetrain":
     """The rig model of ``config_ref`` at ``torque``, cached per process by the run's reuse key.
 
     The key covers the contents of the files the config refers to, so a rewritten excitation table
@@ -134,7 +139,7 @@ def _file_sha256(path: Path) -> str:
     return h.hexdigest()
 
 
-def referenced_files(cfg) -> dict[str, Path]:
+def referenced_files(cfg: "GearConfig") -> dict[str, Path]:
     """Files the config refers to: every string value that names an existing file.
 
     Paths are resolved as :func:`gearrom.rom.rig.load_excitation` resolves ``[rom] excitation``:
@@ -149,7 +154,7 @@ def referenced_files(cfg) -> dict[str, Path]:
     base = Path(cfg.source).parent if cfg.source is not None else Path.cwd()
     found: dict[str, Path] = {}
 
-    def walk(node, where: str) -> None:
+    def walk(node: object, where: str) -> None:
         if isinstance(node, Mapping):
             for k, v in node.items():
                 walk(v, f"{where}.{k}" if where else str(k))
@@ -179,7 +184,7 @@ def _distribution_version(name: str) -> str:
         return "not installed"
 
 
-def reuse_key(cfg, torque: float, n_output_revs: float, samples_per_mesh: int, linear: bool) -> dict:
+def reuse_key(cfg: "GearConfig", torque: float, n_output_revs: float, samples_per_mesh: int, linear: bool) -> dict:
     """Everything a stored per-speed result depends on, apart from the speed itself.
 
     Parameters
@@ -277,7 +282,7 @@ def _one_line(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
 
 
-def _read_point(path: Path, key_hash: str, rpm: float):
+def _read_point(path: Path, key_hash: str, rpm: float) -> tuple[dict, dict[str, np.ndarray]] | None:
     """``(summary, data)`` of a stored speed, or None when it is absent, of another key or damaged.
 
     A file that cannot be read (empty, truncated, not NetCDF) is reported in one warning and
