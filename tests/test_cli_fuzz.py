@@ -50,17 +50,8 @@ ALLOW_ZERO = {("diagnose", "--torque-out-Nm"), ("diagnose", "--max-effects"),  #
 #: Options not fuzzed, and why (every option with a value is cheap to check early at present).
 EXCLUDED: set[tuple[str, str]] = set()
 
-#: Findings in files owned elsewhere (gearrom/cli/sweep.py, gearrom/rom/sweep.py): strict xfails.
-XFAIL = {
-    ("sweep", "--revs"): "sweep --revs: NaN, inf, negative and huge revolutions are not checked before run_sweep "
-                         "(gearrom/cli/sweep.py sweep_settings checks only the config's value)",
-    ("sweep", "--torque"): "sweep --torque: NaN/inf/huge torque not checked before run_sweep (gearrom/cli/sweep.py)",
-    ("sweep", "--processes"): "sweep --processes: a huge count is not bounded before run_sweep (gearrom/cli/sweep.py)",
-    ("sweep", "--rpm"): "sweep --rpm: parse_rpm ('1:1e12:1') expands the grid before any bound and names no option "
-                        "(gearrom/rom/sweep.py parse_rpm, gearrom/cli/sweep.py)",
-    ("sweep", "--out"): "sweep --out: a path blocked by a file / an empty or NUL name is not checked before "
-                        "run_sweep (gearrom/cli/sweep.py)",
-}
+#: Findings not fixed yet: strict xfails with the reason.
+XFAIL: dict[tuple[str, str], str] = {}
 
 
 class Reached(Exception):

@@ -15,15 +15,20 @@ import math
 import sys
 import time
 import warnings
-from pathlib import Path
 
 import numpy as np
 
+from gearrom.cli._args import check_output_dir
 from gearrom.config import GearConfig, load_config
 from gearrom.errors import ConfigError
 
 NAME = "sweep"
 HELP = "dynamic transmission error over a speed range (reduced-order exudyn model)"
+#: bounds of the sweep settings: worker processes, samples per speed (memory of one run), and the load torque
+#: as a multiple of the operating torque (beyond it the tooth load exceeds any gear's strength)
+MAX_PROCESSES = 256
+MAX_SAMPLES = 2e7
+TORQUE_FACTOR = 100.0
 SWEEP_KEYS = {"rpm": "speeds 'START:STOP:STEP' [rpm]", "output_revolutions": "recorded output revolutions per speed",
               "samples_per_mesh": "samples per mesh period", "processes": "worker processes"}
 
@@ -32,7 +37,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("config", metavar="NAME_OR_PATH", help="bundled config name or TOML path")
     parser.add_argument("--rpm", help="input speeds START:STOP:STEP or a comma list [rpm] (default: [sweep] rpm, "
                                       "else 250:5000:250)")
-    parser.add_argument("--out", required=True, type=Path, help="output directory (reused to resume)")
+    parser.add_argument("--out", required=True, help="output directory (reused to resume)")
     parser.add_argument("--processes", type=int, help="worker processes (default: [sweep] processes, else 2)")
     parser.add_argument("--revs", type=float, help="recorded output revolutions per speed (default 2)")
     parser.add_argument("--torque", type=float, help="load torque [N m] (default: operating.torque_out_Nm)")
@@ -58,10 +63,21 @@ def sweep_settings(cfg, args) -> dict:
         out["processes"] = args.processes
     if args.revs is not None:
         out["output_revolutions"] = args.revs
-    if out["processes"] < 1:
-        raise ConfigError(f"--processes must be >= 1, got {out['processes']}")
-    if args.torque is not None and not (math.isfinite(args.torque) and args.torque > 0):
-        raise ConfigError(f"--torque must be a positive, finite load torque, got {args.torque:g} N m")
+    src = lambda opt, key: opt if getattr(args, opt[2:]) is not None else f"{cfg.source}: sweep.{key}"  # noqa: E731
+    if not 1 <= out["processes"] <= MAX_PROCESSES:
+        raise ConfigError(f"{src('--processes', 'processes')} must be in 1..{MAX_PROCESSES} worker processes, "
+                          f"got {out['processes']}")
+    revs, z2 = float(out["output_revolutions"]), cfg.pair.z[1]
+    samples = revs * z2 * out["samples_per_mesh"] if math.isfinite(revs) else math.inf
+    if not (math.isfinite(revs) and revs * z2 >= 1 and samples <= MAX_SAMPLES):
+        raise ConfigError(f"{src('--revs', 'output_revolutions')} must record at least one mesh period (>= "
+                          f"{1 / z2:.4g} output revolutions for z2 = {z2}) and at most {MAX_SAMPLES:.0e} samples "
+                          f"per speed, got {revs:g} revolutions")
+    if args.torque is not None:
+        limit = TORQUE_FACTOR * cfg.operating.torque_out
+        if not (math.isfinite(args.torque) and 0 < args.torque <= limit):
+            raise ConfigError(f"--torque must be a positive load torque of at most {TORQUE_FACTOR:g} x "
+                              f"operating.torque_out_Nm = {limit:g} N m, got {args.torque:g} N m")
     return out
 
 
@@ -83,8 +99,13 @@ def run(args: argparse.Namespace) -> int:
         warnings.simplefilter("ignore")
         cfg = load_config(args.config)
     st = sweep_settings(cfg, args)
-    rpms = parse_rpm(st["rpm"])
+    where = f"--rpm {args.rpm!r}" if args.rpm is not None else f"{cfg.source}: sweep.rpm {st['rpm']!r}"
+    try:
+        rpms = parse_rpm(st["rpm"])
+    except ConfigError as exc:
+        raise ConfigError(f"{where}: {exc}") from None
     _check_repeats(rpms, st, cfg, args)
+    args.out = check_output_dir("--out", args.out)
     t0 = time.perf_counter()
     res = run_sweep(args.config, rpms, args.out, torque_out=args.torque, processes=st["processes"],
                     n_output_revs=float(st["output_revolutions"]), samples_per_mesh=st["samples_per_mesh"],

@@ -40,8 +40,16 @@ _MODEL_CACHE: dict = {}
 _BLAS_ENV = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
 
 
+#: bounds of a speed list: count of speeds, and the fastest input speed [rpm] (beyond any gear drive)
+MAX_SPEEDS = 100_000
+MAX_RPM = 1e6
+
+
 def parse_rpm(spec: str | float | list) -> np.ndarray:
-    """Speeds from ``"A:B:STEP"`` (inclusive of B when on the grid), ``"A,B,C"`` or a number [rpm]."""
+    """Speeds from ``"A:B:STEP"`` (inclusive of B when on the grid), ``"A,B,C"`` or a number [rpm].
+
+    At most :data:`MAX_SPEEDS` speeds, each in (0, :data:`MAX_RPM`] rpm (checked before a grid is expanded).
+    """
     try:
         if isinstance(spec, (int, float)):
             vals = [float(spec)]
@@ -49,17 +57,21 @@ def parse_rpm(spec: str | float | list) -> np.ndarray:
             vals = [float(v) for v in spec]
         elif ":" in spec:
             a, b, s = (float(v) for v in spec.split(":"))
-            if s <= 0 or b < a:
+            if not (s > 0 and b >= a and math.isfinite(b) and math.isfinite(a)):
                 raise ValueError
             n = int(math.floor((b - a) / s + 1e-9)) + 1
-            vals = list(a + s * np.arange(n))
+            vals = list(a + s * np.arange(n)) if n <= MAX_SPEEDS else [math.nan] * (MAX_SPEEDS + 1)
         else:
             vals = [float(v) for v in spec.split(",")]
     except ValueError:
         raise ConfigError(f"rpm specification {spec!r} is not 'START:STOP:STEP', a comma list or a number") from None
+    except (TypeError, AttributeError):
+        raise ConfigError(f"rpm specification {spec!r} is not text, a number or a list of numbers") from None
     arr = np.array(vals)
-    if arr.size == 0 or np.any(~np.isfinite(arr)) or np.any(arr <= 0):
-        raise ConfigError(f"rpm specification {spec!r} must give positive speeds")
+    if arr.size > MAX_SPEEDS:
+        raise ConfigError(f"rpm specification {spec!r} gives more than {MAX_SPEEDS} speeds")
+    if arr.size == 0 or np.any(~np.isfinite(arr)) or np.any(arr <= 0) or np.any(arr > MAX_RPM):
+        raise ConfigError(f"rpm specification {spec!r} must give speeds in (0, {MAX_RPM:g}] rpm")
     return arr
 
 

@@ -18,8 +18,10 @@ def test_parse_rpm():
     np.testing.assert_allclose(parse_rpm("100,200"), [100, 200])
     with pytest.raises(ConfigError, match="rpm specification"):
         parse_rpm("a:b")
-    with pytest.raises(ConfigError, match="positive"):
+    with pytest.raises(ConfigError, match=r"speeds in \(0, "):
         parse_rpm("-5")
+    with pytest.raises(ConfigError, match="more than 100000 speeds"):  # bounded before the grid is expanded
+        parse_rpm("1:1e12:1")
 
 
 def test_sweep_cli_outputs_and_resume(tmp_path, capsys):
@@ -86,3 +88,19 @@ def test_modal_result_round_trip(tmp_path):
     np.testing.assert_allclose(back.freqs, m.freqs)
     np.testing.assert_allclose(back.shapes, m.shapes)
     assert m.plot().axes
+
+
+def test_sweep_options_checked_before_any_run(tmp_path, capsys):
+    """Revolutions below one mesh period (0 samples: an FFT traceback), a torque beyond 100x the
+    operating torque and an --out blocked by a file: exit 2, one line naming the option, nothing run."""
+    from gearrom.cli import main
+
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    for extra, opt in ((["--revs", "0.01"], "--revs"), (["--torque", "1e13"], "--torque"),
+                       (["--out", str(blocker)], "--out")):
+        argv = ["sweep", "thesis-rig", "--rpm", "1000", "--out", str(tmp_path / "o"), "--no-progress", *extra]
+        assert main(argv) == 2
+        err = [ln for ln in capsys.readouterr().err.splitlines() if "error:" in ln]
+        assert len(err) == 1 and opt in err[0]
+    assert not (tmp_path / "o" / "speeds").exists() or not any((tmp_path / "o" / "speeds").iterdir())
