@@ -139,18 +139,17 @@ class FEMicroModel:
         ltca = self.ltca(pair)
         if ltca is None:
             return SliceMicroModel().excitation(pair, tq, mods)
-        key = hashlib.sha1(json.dumps([CODE_VERSION, _pair_key(pair), repr(mods), tq, self.n_positions, self.helical_model]).encode()
-                           ).hexdigest()[:24]
+        from gearrom import __version__
+
+        key = hashlib.sha1(json.dumps([CODE_VERSION, __version__, _pair_key(pair), repr(mods), tq, self.n_positions,
+                                       self.helical_model]).encode()).hexdigest()[:24]
         if key in _MEMORY:
             return _MEMORY[key]
+        from gearrom.fe.cache import FECache, atomic_path
+
         d = self._dir()
-        path = d / f"micro-{key}.nc" if d else None
-        ex = None
-        if path is not None and path.exists():
-            try:
-                ex = MeshExcitation.load(path)
-            except Exception:  # noqa: BLE001  (a damaged cache entry is recomputed)
-                ex = None
+        cache, name = (FECache(d) if d else None), f"micro-{key}.nc"
+        ex = cache.fetch(name, MeshExcitation.load) if cache is not None else None  # damaged: reported, recomputed
         if ex is None:
             from gearrom.fe.sweep import mesh_cycle
 
@@ -159,12 +158,12 @@ class FEMicroModel:
                 warnings.simplefilter("ignore")
                 lt = _rebuild(ltca, new)
                 ex = mesh_cycle(lt, tq, n_positions=self.n_positions, tangent=False).to_excitation()
-            if path is not None:
-                try:
-                    d.mkdir(parents=True, exist_ok=True)
-                    ex.save(path)
-                except OSError as exc:
-                    log.warning("micro-geometry cache %s not written: %s", path, exc)
+            if cache is not None:
+                def save(path: Path) -> None:
+                    with atomic_path(path) as tmp:
+                        ex.save(tmp)
+
+                cache.store(name, save)  # an unwritable directory: one warning, the result is kept
         _MEMORY[key] = ex
         return ex
 

@@ -299,3 +299,29 @@ def test_3d_unwritable_dir_warns_once_per_cache(pair, tmp_path, monkeypatch, cap
     msgs = _reports(caplog)
     assert len(msgs) == 1 and str(blocker) in msgs[0], msgs
     assert [c.info["gear"] for c in comps] == [0, 1]
+
+
+@pytest.mark.parametrize("damage", ["empty", "truncated"])
+def test_damaged_micro_geometry_table_is_reported_and_refetched(tmp_path, damage, caplog):
+    """The calibrate package's micro-geometry tables (NetCDF entries of the same cache object): a
+    damaged entry is one warning naming the file and a miss, not a traceback; an intact one loads."""
+    from gearrom.config import load_config
+    from gearrom.excitation.analytical import analytical_excitation
+    from gearrom.excitation.table import MeshExcitation
+
+    ex = analytical_excitation(load_config("thesis-spur").pair, [60.0, 120.0], n_theta=32)
+    cache = FECache(tmp_path)
+
+    def save(path):
+        with atomic_path(path) as tmp:
+            ex.save(tmp)
+
+    assert cache.store("micro-x.nc", save)
+    np.testing.assert_allclose(cache.fetch("micro-x.nc", MeshExcitation.load).e, ex.e)
+    path = tmp_path / "micro-x.nc"
+    data = path.read_bytes()
+    path.write_bytes(b"" if damage == "empty" else data[: len(data) // 2])
+    with caplog.at_level(logging.WARNING, logger="gearrom.fe.cache"):
+        assert cache.fetch("micro-x.nc", MeshExcitation.load) is None
+    lines = [r.getMessage() for r in caplog.records if "damaged" in r.getMessage()]
+    assert len(lines) == 1 and str(path) in lines[0] and not path.exists()
