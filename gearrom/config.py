@@ -93,7 +93,7 @@ GEAR_SUBSECTIONS = ("tool", "microgeometry", "material")
 
 #: (section, key) -> values that are keywords, not paths. Any other string value of such a key is
 #: a path; a relative one is made absolute against the directory of the file that holds it.
-PATH_KEYS: dict[tuple[str, str], tuple[str, ...]] = {("rom", "excitation"): ("analytical",)}
+PATH_KEYS: dict[tuple[str, str], tuple[str, ...]] = {("rom", "excitation"): ("analytical", "fe")}
 
 #: Unit shown in messages, from the key's suffix (values are reported as written in the file).
 UNIT_SUFFIXES = (("_kg_per_m3", "kg/m^3"), ("_mm", "mm"), ("_um", "um"), ("_deg", "deg"), ("_GPa", "GPa"),

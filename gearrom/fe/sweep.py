@@ -269,8 +269,9 @@ def build_ltca(pair, settings: MeshSettings | None = None, cache_dir: str | Path
 
 
 def mesh_cycle(ltca: SpurLTCA, torques, n_positions: int = 64, mesh_index: int = 0, tangent: bool = True,
-               metadata: dict | None = None) -> StiffnessResult:
-    """Solve ``n_positions`` uniform positions of one mesh period at each output torque [N m]."""
+               metadata: dict | None = None, progress: bool = False) -> StiffnessResult:
+    """Solve ``n_positions`` uniform positions of one mesh period at each output torque [N m]
+    (``progress``: a progress bar over the positions)."""
     from gearrom.fe.helical3d import contact_pattern  # helical results only; imported once, not per position
 
     torques = np.sort(np.atleast_1d(np.asarray(torques, float)))
@@ -285,7 +286,12 @@ def mesh_cycle(ltca: SpurLTCA, torques, n_positions: int = 64, mesh_index: int =
     n_z = getattr(ltca, "n_slices", 24)  # pattern bins over the face: one per strip of the helical models
     t0 = time.perf_counter()
     eps = 1e-3
-    for i, th in enumerate(theta):
+    positions = enumerate(theta)
+    if progress:
+        from tqdm import tqdm
+
+        positions = tqdm(positions, total=n, desc="FE mesh cycle", unit="position", leave=False)
+    for i, th in positions:
         tq = list(torques) + ([*(torques * (1 + eps))] if tangent else [])
         res = ltca.solve_many(th, tq, mesh_index)
         kin[i] = res[0].ste_kinematic

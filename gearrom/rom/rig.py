@@ -69,9 +69,25 @@ def rom_section(cfg: GearConfig) -> dict:
     return _merged(cfg.section("rom"), ROM_DEFAULTS, "rom", cfg.source)
 
 
-def load_excitation(cfg: GearConfig, rom: dict, torque: float) -> MeshExcitation:
-    """The configured excitation: ``"analytical"`` or a MeshExcitation NetCDF path (relative to the config)."""
+def load_excitation(cfg: GearConfig, rom: dict, torque: float, progress: bool = False) -> MeshExcitation:
+    """The configured excitation.
+
+    ``"fe"``: the quasi-static FE tables of the pair (:func:`gearrom.excitation.fe.fe_excitation`,
+    the model of ``gearrom stiffness`` with the config's ``[fe]`` mesh) over the torque map
+    ``rom.excitation_torques_Nm`` (default :data:`gearrom.excitation.fe.TORQUE_MAP` times the
+    torque), computed on first use and cached by content (``progress``: a progress bar then);
+    ``"analytical"``: the ISO 6336-1 shaped table; else a MeshExcitation NetCDF path (relative to
+    the config).
+    """
     src = rom["excitation"]
+    if src == "fe":
+        from gearrom.excitation.fe import fe_excitation, torque_map
+        from gearrom.fe.mesh2d import settings_from_section
+
+        settings, extra = settings_from_section(cfg.section("fe"), str(cfg.source or cfg.name))
+        torques = ([float(t) for t in rom["excitation_torques_Nm"]] or torque_map(torque)) + [float(torque)]
+        return fe_excitation(cfg.pair, torques, int(extra.get("positions", 64)), settings, progress=progress,
+                             config_name=cfg.name, config_digest=cfg.digest())
     if src == "analytical":
         torques = sorted({float(t) for t in rom["excitation_torques_Nm"]} | {float(torque)})
         return analytical_excitation(cfg.pair, torques, n_theta=int(rom["n_theta"]), config_name=cfg.name,
@@ -85,6 +101,21 @@ def load_excitation(cfg: GearConfig, rom: dict, torque: float) -> MeshExcitation
     if ex.z1 != cfg.pair.z[0]:
         raise ConfigError(f"{cfg.source}: rom.excitation has z1 = {ex.z1}, the pair has {cfg.pair.z[0]}")
     return ex
+
+
+def excitation_info(cfg: GearConfig, torque: float, progress: bool = False) -> dict[str, Any]:
+    """Which excitation a model of ``cfg`` at ``torque`` [N m] runs on (computing an FE table here if
+    it is not cached): ``source`` ("fe", "analytical" or the table file), the FE ``cache_key``,
+    the table's ``torques_Nm`` and ``n_positions``."""
+    rom = rom_section(cfg)
+    ex = load_excitation(cfg, rom, torque, progress=progress)
+    src = rom["excitation"]
+    info: dict[str, Any] = {"source": src if src in ("fe", "analytical") else str(src),
+                            "torques_Nm": [float(t) for t in ex.torque], "n_theta": int(ex.n_theta)}
+    if src == "fe":
+        info["cache_key"] = ex.metadata.get("cache_key", "")
+        info["n_positions"] = int(ex.metadata.get("n_positions", ex.n_theta))
+    return info
 
 
 def rig_parameters(config: GearConfig | str | Path) -> dict[str, Any]:

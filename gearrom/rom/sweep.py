@@ -381,7 +381,7 @@ class SweepResult:
 
     def summary_json(self) -> dict:
         return {"config": self.config, "side": "sensor", **{k: self.metadata[k] for k in
-                ("config_digest", "torque_out_Nm") if k in self.metadata}, "speeds": self.summary}
+                ("config_digest", "torque_out_Nm", "excitation") if k in self.metadata}, "speeds": self.summary}
 
     def plot(self, channel: str = "dte_sensor", fmax: float | None = None):
         """Waterfall (colour map) of the DTE spectrum vs frequency and speed, with GMF orders 1-3."""
@@ -506,6 +506,10 @@ def run_sweep(config_ref: str | Path, rpms, out_dir: str | Path, *, torque_out: 
     todo = [(ref, float(rpms[i]), torque, n_output_revs, samples_per_mesh, paths[i], key_hash, key_json, linear)
             for i in range(len(rpms)) if i not in points]
     index = {float(rpms[i]): i for i in range(len(rpms))}
+    from gearrom.rom.rig import excitation_info
+
+    # in this process first: an FE table is computed once (progress bar) and cached for the workers
+    excitation = excitation_info(cfg, torque, progress=progress and bool(todo))
     if points:
         log.info("resuming: %d of %d speeds already done", len(points), len(rpms))
     from tqdm import tqdm
@@ -544,4 +548,4 @@ def run_sweep(config_ref: str | Path, rpms, out_dir: str | Path, *, torque_out: 
     data = {k: np.array([points[i][1][k] for i in range(len(rpms))]) for k in CHANNELS}
     return SweepResult(cfg.name, rpms, data, samples_per_mesh, cfg.pair.z, summary,
                        {"config_digest": cfg.digest(), "torque_out_Nm": torque, "n_output_revs": n_output_revs,
-                        "reuse_key": key})
+                        "reuse_key": key, "excitation": excitation})

@@ -1,0 +1,122 @@
+"""Mesh excitation from the quasi-static FE (LTCA) over a mesh cycle and a torque map, cached by content.
+
+:func:`fe_excitation` gives the :class:`~gearrom.excitation.table.MeshExcitation` of a pair from the
+same model ``gearrom stiffness`` runs (spur: plane-strain influence coefficients; helical: the 3D FE
+compliances), over ``n_positions`` mesh positions and a torque map around the operating torque
+(:data:`TORQUE_MAP`, e.g. 0.25x-2x), so that a model can follow the load. The drawing
+micro-geometry of the pair's gears enters the contact solves (no new FE solve).
+
+The table is stored in ``<cache>/tables/table-<key>.nc`` (:class:`gearrom.fe.cache.FECache`: atomic
+writes; a damaged entry is reported in one line and recomputed; an unwritable folder gives one
+warning and the table is kept in memory). The key hashes the pair (geometry, tools, materials,
+micro-geometry), the ``[fe]`` mesh settings, the torques, the position count, the model and the
+gearrom version. The FE compliances themselves come from the FE cache, so a new torque map or
+micro-geometry costs only the contact solves.
+"""
+from __future__ import annotations
+
+import dataclasses
+import logging
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from gearrom.excitation.table import MeshExcitation
+
+log = logging.getLogger(__name__)
+
+#: torque map of the tables, as multiples of the operating output torque
+TORQUE_MAP = (0.25, 0.5, 0.75, 1.0, 1.5, 2.0)
+#: revision of the way the table is computed (part of the cache key)
+TABLE_REVISION = "fe-table-v1"
+
+
+def torque_map(torque_out: float, factors: Sequence[float] = TORQUE_MAP) -> list[float]:
+    """Output torques [N m] of the table: ``factors`` times ``torque_out`` (sorted, unique)."""
+    return sorted({round(float(f) * float(torque_out), 9) for f in factors})
+
+
+def _pair_key(pair) -> dict:
+    def plain(obj):
+        if dataclasses.is_dataclass(obj):
+            return {f.name: plain(getattr(obj, f.name)) for f in dataclasses.fields(obj)}
+        if isinstance(obj, (list, tuple)):
+            return [plain(v) for v in obj]
+        if isinstance(obj, float):
+            return repr(obj)
+        return obj if isinstance(obj, (int, str, bool, type(None))) else repr(obj)
+
+    return plain(pair)
+
+
+def table_key(pair, torques: Sequence[float], n_positions: int, settings=None, helical_model: str = "3d") -> str:
+    """Content key of a table: pair, torques, positions, mesh settings, model, gearrom version."""
+    from gearrom.fe.cache import cache_key
+
+    return cache_key(TABLE_REVISION, {"pair": _pair_key(pair), "torques_Nm": [repr(float(t)) for t in torques],
+                                      "n_positions": int(n_positions), "settings": repr(settings),
+                                      "helical_model": helical_model if pair.is_helical else "2d"})
+
+
+def fe_excitation(pair, torques: Sequence[float], n_positions: int = 64, settings=None, *,
+                  cache_dir: str | Path | bool | None = True, helical_model: str = "3d", progress: bool = False,
+                  config_name: str = "", config_digest: str = "") -> MeshExcitation:
+    """Quasi-static FE mesh excitation of ``pair`` at the output ``torques`` [N m] (cached by content).
+
+    Parameters
+    ----------
+    pair : GearPair
+        The gear pair (its enabled micro-geometry is part of the contact solves).
+    torques : sequence of float
+        Output torques of the table [N m] (see :func:`torque_map`).
+    n_positions : int
+        Mesh positions per mesh period.
+    settings : MeshSettings, optional
+        2D mesh settings (the config's ``[fe]`` section); helical pairs use the 3D model's mesh.
+    cache_dir : path, bool or None
+        FE cache folder (``True``: :func:`gearrom.fe.sweep.default_cache_dir`); the tables go to
+        its ``tables`` subfolder. ``None``/``False``: no disk cache.
+    helical_model : {"3d", "slices"}
+        Helical pairs: the 3D FE model (default, as ``gearrom stiffness``) or uncoupled slices.
+    progress : bool
+        Show a progress bar over the mesh positions when the table is computed.
+    config_name, config_digest : str
+        Recorded in the table's metadata.
+
+    Returns
+    -------
+    MeshExcitation
+        Secant stiffness and static TE over (torque, theta); ``metadata`` holds ``source``
+        (``"fe"``), ``cache_key``, ``torques_Nm`` and ``n_positions``.
+    """
+    from gearrom.fe.cache import FECache, atomic_path
+    from gearrom.fe.sweep import build_ltca, default_cache_dir, mesh_cycle
+
+    tq = sorted({float(t) for t in torques})
+    if not tq or not all(t > 0 for t in tq):
+        from gearrom.errors import ModelError
+
+        raise ModelError(f"fe_excitation: torques must be positive N m, got {list(torques)}")
+    key = table_key(pair, tq, n_positions, settings, helical_model)
+    folder = (default_cache_dir() if cache_dir is True else Path(cache_dir) if cache_dir else None)
+    cache = FECache(folder / "tables") if folder is not None else None
+    name = f"table-{key}.nc"
+    ex = cache.fetch(name, MeshExcitation.load) if cache is not None else None
+    if ex is not None:
+        log.info("FE excitation table %s from the cache", key)
+        return ex
+    log.info("computing the FE excitation table (%d positions x %d torques) of %s", n_positions, len(tq),
+             config_name or "the pair")
+    ltca = build_ltca(pair, settings, cache_dir if cache_dir is not None else None, helical_model=helical_model)
+    meta = {"config": config_name, "config_digest": config_digest, "source": "fe", "cache_key": key,
+            "torques_Nm": tq, "n_positions": int(n_positions)}
+    res = mesh_cycle(ltca, tq, n_positions, metadata=meta, progress=progress)
+    ex = res.to_excitation()
+    if cache is not None:
+        def save(path: Path) -> None:
+            with atomic_path(path) as tmp:
+                ex.save(tmp)
+
+        cache.store(name, save)
+    return ex

@@ -1,0 +1,102 @@
+"""FE tables as the ROM's excitation (``[rom] excitation = "fe"``): content-keyed cache, torque map,
+the ROM's quasi-static deflection against the LTCA, and the sweep's record of its excitation.
+
+Reference: the LTCA solved directly at each torque over a mesh period (the quasi-static FE, not the
+table); the ROM's mesh deflection at a crawl speed must equal the static TE within 2 % (mean), also at
+a torque between the table's torque-map points.
+"""
+from __future__ import annotations
+
+import json
+import logging
+
+import numpy as np
+import pytest
+
+from gearrom.config import load_config
+from gearrom.excitation.fe import fe_excitation, torque_map
+from gearrom.fe.mesh2d import MeshSettings
+
+MESH = MeshSettings(flank_size=0.12e-3, tooth_size=1.35e-3, body_size=9e-3)  # coarse: ~0.5 s per gear
+CONFIG = """extends = "thesis-spur"
+name = "spur-rig-fe"
+[rom]
+excitation = "fe"
+[fe]
+flank_size_mm = 0.12
+tooth_size_mm = 1.35
+body_size_mm = 9.0
+positions = 32
+"""
+
+
+@pytest.fixture(scope="module")
+def rig_config(tmp_path_factory):
+    d = tmp_path_factory.mktemp("fe_rig")
+    path = d / "spur-rig-fe.toml"
+    path.write_text(CONFIG)
+    return path
+
+
+def test_torque_map_brackets_the_operating_torque():
+    tq = torque_map(120.0)
+    assert tq[0] == pytest.approx(30.0) and tq[-1] == pytest.approx(240.0) and 120.0 in tq
+
+
+def test_table_is_cached_by_content(tmp_path, monkeypatch):
+    pair = load_config("thesis-spur").pair
+    first = fe_excitation(pair, [60.0, 120.0], 8, MESH, cache_dir=tmp_path)
+    assert first.metadata["source"] == "fe" and len(list((tmp_path / "tables").glob("table-*.nc"))) == 1
+    import gearrom.fe.sweep as fesweep
+
+    def no_fe(*a, **k):
+        raise AssertionError("the cached table must be used, not a new FE solve")
+
+    monkeypatch.setattr(fesweep, "build_ltca", no_fe)
+    again = fe_excitation(pair, [120.0, 60.0], 8, MESH, cache_dir=tmp_path)
+    np.testing.assert_array_equal(again.e, first.e)
+    assert again.metadata["cache_key"] == first.metadata["cache_key"]
+    with pytest.raises(AssertionError, match="cached table"):  # another torque map is another entry
+        fe_excitation(pair, [60.0, 120.0, 240.0], 8, MESH, cache_dir=tmp_path)
+
+
+def test_damaged_table_is_recomputed(tmp_path, caplog):
+    pair = load_config("thesis-spur").pair
+    first = fe_excitation(pair, [120.0], 8, MESH, cache_dir=tmp_path)
+    (entry,) = (tmp_path / "tables").glob("table-*.nc")
+    entry.write_bytes(entry.read_bytes()[:100])
+    with caplog.at_level(logging.WARNING, logger="gearrom.fe.cache"):
+        again = fe_excitation(pair, [120.0], 8, MESH, cache_dir=tmp_path)
+    assert sum("damaged" in r.getMessage() and str(entry) in r.getMessage() for r in caplog.records) == 1
+    np.testing.assert_allclose(again.e, first.e, rtol=1e-12)
+
+
+def test_rom_crawl_deflection_matches_the_ltca_static_te(rig_config):
+    """0.5x, 1x, 2x the operating torque and 100 N m (between map points 90 and 120)."""
+    from gearrom.fe.sweep import build_ltca
+    from gearrom.rom.rig import build_rig
+    from gearrom.rom.simulate import simulate_run
+
+    model = build_rig(rig_config)
+    assert model.excitation.metadata["source"] == "fe"
+    ltca = build_ltca(model.pair, MESH)
+    z1 = model.pair.z[0]
+    thetas = (np.arange(16) + 0.5) * ltca.period / 16
+    for torque in (60.0, 100.0, 120.0, 240.0):
+        ref = np.mean([ltca.solve(th, torque).ste for th in thetas])
+        t_mesh = 60.0 / 10.0 / z1
+        run = simulate_run(model, 10.0, torque, duration_s=t_mesh, settle_s=0.2 * t_mesh)
+        assert run.delta.mean() == pytest.approx(ref, rel=0.02), torque
+
+
+def test_sweep_records_its_excitation(rig_config, tmp_path):
+    from gearrom.cli import main
+
+    out = tmp_path / "sw"
+    assert main(["sweep", str(rig_config), "--rpm", "1500", "--revs", "0.5", "--out", str(out), "--no-progress",
+                 "--no-linear", "--processes", "1"]) == 0
+    exc = json.loads((out / "summary.json").read_text())["excitation"]
+    assert exc["source"] == "fe" and len(exc["cache_key"]) == 24 and exc["torques_Nm"][0] == pytest.approx(30.0)
+    from gearrom.rom.sweep import SweepResult
+
+    assert SweepResult.load(out / "sweep.nc").metadata["excitation"] == exc
