@@ -41,6 +41,10 @@ class AngleData:
         Mean input speed over the record, rpm.
     n_edges : dict
         Rows read per channel.
+    info : dict
+        Reader reports: for kind ``quadrature`` the decoding (sample rate, edge rate, timing
+        resolution, illegal transitions, index pulses, direction) and what was cut (``trimmed``);
+        ``window_s`` when a time window was applied.
     """
 
     t_s: np.ndarray
@@ -51,13 +55,14 @@ class AngleData:
     repairs: tuple[Repair, ...] = ()
     rpm_in_measured: float = float("nan")
     n_edges: dict = field(default_factory=dict)
+    info: dict = field(default_factory=dict)
 
 
 def auto_fs(meta: MeasurementMeta, settings: ReadSettings) -> float:
     """Grid rate: the nominal input edge rate divided down to at most ``settings.fs_max_hz``."""
     if settings.fs_hz is not None:
         return float(settings.fs_hz)
-    rate = meta.rpm_in / 60.0 * meta.encoders["input"].edges_per_rev
+    rate = meta.rpm_in / 60.0 * meta.encoders["input"].counts_per_shaft_rev
     return rate / max(1, math.ceil(rate / settings.fs_max_hz - 1e-9))
 
 
@@ -83,6 +88,10 @@ def load_angles(source: str | Path | MeasurementMeta, settings: ReadSettings | N
     meta = source if isinstance(source, MeasurementMeta) else read_meta(source)
     if meta.kind == "edges":
         data = _load_edges(meta, settings)
+    elif meta.kind == "quadrature":
+        from gearrom.signal.qload import load_quadrature
+
+        data = load_quadrature(meta, settings)
     else:
         data = _load_angle_rows(meta, settings)
     _check_rpm(data, settings)
@@ -92,10 +101,30 @@ def load_angles(source: str | Path | MeasurementMeta, settings: ReadSettings | N
 def _load_edges(meta: MeasurementMeta, settings: ReadSettings) -> AngleData:
     fs = auto_fs(meta, settings)
     file, label = str(meta.data_path), row_label(meta)
-    streams = {ch: EdgeStream(ch, meta.encoders[ch].edges_per_rev, fs, file, label, settings) for ch in CHANNELS}
+    res_s = settings.timing_resolution_s or 1.0 / meta.clock_hz
+    streams = {ch: EdgeStream(ch, meta.encoders[ch].counts_per_shaft_rev, fs, file, label, settings,
+                              period=settings.edge_period or 1, timing_resolution_s=res_s) for ch in CHANNELS}
+    t0, t1 = settings.t_start_s, settings.t_end_s
     for chunk in iter_chunks(meta, settings.chunk_rows, allow_outside_data=settings.allow_outside_data):
         assert isinstance(chunk, EdgeChunk)
+        if t0 is not None or t1 is not None:
+            m = (chunk.t >= (t0 if t0 is not None else -np.inf)) & (chunk.t < (t1 if t1 is not None else np.inf))
+            if not m.all():
+                chunk = EdgeChunk(chunk.channel, chunk.t[m], chunk.row[m],
+                                  None if chunk.direction is None else chunk.direction[m])
+            if not chunk.t.size:
+                continue
         streams[chunk.channel].feed(chunk)
+    info = {"timing_resolution_s": res_s}
+    if t0 is not None or t1 is not None:
+        info["window_s"] = [t0, t1]
+    return combine_streams(meta, streams, fs, info=info)
+
+
+def combine_streams(meta: MeasurementMeta, streams: dict[str, EdgeStream], fs: float, repairs: tuple = (),
+                    info: dict | None = None) -> AngleData:
+    """Both channels' angles cut to their common grid span (the streams have been fed)."""
+    file = str(meta.data_path)
     res = {ch: s.finish() for ch, s in streams.items()}
     (k_in, th_in), (k_out, th_out) = res["input"], res["output"]
     k0 = max(k_in, k_out)
@@ -107,11 +136,12 @@ def _load_edges(meta: MeasurementMeta, settings: ReadSettings) -> AngleData:
     th_out = th_out[k0 - k_out:k1 - k_out]
     s_in = streams["input"]
     rpm = s_in.last_count * s_in.dtheta / (s_in.last_t - s_in.first_t) * 60.0 / (2 * math.pi)
-    repairs = tuple(r for s in streams.values() for r in s.repairs)
+    repairs = tuple(repairs) + tuple(r for s in streams.values() for r in s.repairs)
     for r in repairs:
         log.info("repair: %s", r.message())
     return AngleData(t_s=np.arange(k0, k1) / fs, theta_in_rad=th_in, theta_out_rad=th_out, fs_hz=fs, meta=meta,
-                     repairs=repairs, rpm_in_measured=rpm, n_edges={ch: s.n_edges for ch, s in streams.items()})
+                     repairs=repairs, rpm_in_measured=rpm, n_edges={ch: s.n_edges for ch, s in streams.items()},
+                     info=info or {})
 
 
 def _span(s: EdgeStream) -> str:
@@ -126,6 +156,14 @@ def _load_angle_rows(meta: MeasurementMeta, settings: ReadSettings) -> AngleData
     if not parts or sum(p.t.size for p in parts) < 16:
         raise MeasurementError(f"{file}: fewer than 16 data rows")
     t = np.concatenate([p.t for p in parts])
+    if settings.t_start_s is not None or settings.t_end_s is not None:
+        lo = settings.t_start_s if settings.t_start_s is not None else -np.inf
+        hi = settings.t_end_s if settings.t_end_s is not None else np.inf
+        masks = [(p_.t >= lo) & (p_.t < hi) for p_ in parts]
+        parts = [AngleChunk(p_.t[m], p_.theta_in[m], p_.theta_out[m], p_.row[m]) for p_, m in zip(parts, masks)]
+        t = np.concatenate([p.t for p in parts])
+        if t.size < 16:
+            raise MeasurementError(f"{file}: fewer than 16 data rows in the time window {lo}..{hi} s")
     th = {"input": np.concatenate([p.theta_in for p in parts]),
           "output": np.concatenate([p.theta_out for p in parts])}
     row = np.concatenate([p.row for p in parts])
@@ -185,10 +223,16 @@ def _load_angle_rows(meta: MeasurementMeta, settings: ReadSettings) -> AngleData
 
 
 def _check_rpm(data: AngleData, settings: ReadSettings) -> None:
+    """``rpm_in`` against the plateau speed of the data (the speed the record spends most time at:
+    the steady part of a run with start-up and coast-down; the mean speed of a steady run)."""
+    from gearrom.signal.runup import plateau_rpm, speed_profile
+
     meta = data.meta
-    rel = abs(data.rpm_in_measured - meta.rpm_in) / meta.rpm_in
+    rpm = plateau_rpm(speed_profile(data.t_s, data.theta_in_rad)[1])
+    rel = abs(rpm - meta.rpm_in) / meta.rpm_in
     if not rel <= settings.rpm_tolerance:
         raise MeasurementError(
             f"{meta.path}: key 'rpm_in' = {meta.rpm_in:g} disagrees with the data ({meta.data_path}, channel "
-            f"'input', t={fmt_t(float(data.t_s[0]))}..{fmt_t(float(data.t_s[-1]))}: mean "
-            f"{data.rpm_in_measured:.6g} rpm) by {100 * rel:.2f} % (tolerance {100 * settings.rpm_tolerance:g} %)")
+            f"'input', t={fmt_t(float(data.t_s[0]))}..{fmt_t(float(data.t_s[-1]))}: plateau speed "
+            f"{rpm:.6g} rpm, mean {data.rpm_in_measured:.6g} rpm) by {100 * rel:.2f} % (tolerance "
+            f"{100 * settings.rpm_tolerance:g} %; gearrom te --rpm-tolerance)")

@@ -6,8 +6,13 @@ checks them, repairs what can be repaired and emits the angle, interpolated betw
 (cubic Hermite by default, or linear), at the grid times ``k / fs_hz``.
 
 Checks, against a local reference interval (the median of the two intervals before and the two
-after, i.e. the local speed; it follows accelerations, run-ups from rest included; the first two
-intervals of a channel have no reference before them and are not checked):
+after at the same phase of the decoding, i.e. ``period`` and ``2 period`` edges away: with x4
+decoding an interval is compared with the ones four and eight edges earlier and later, which
+share its A/B phase error; the reference follows the local speed, accelerations and run-ups from
+rest included; the first ``2 period`` intervals of a channel have no reference before them and
+are not checked). An interval that differs from its reference by no more than twice the timing
+resolution (the time-stamp clock or the sample step) is normal whatever the ratios say: an
+interval within the timing jitter is never repaired.
 
 - non-finite or decreasing time stamps, direction reversals (``direction`` column = -1): error;
 - an interval shorter than ``double_ratio`` times the reference: a spurious double edge (or a
@@ -25,84 +30,14 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import asdict, dataclass
-from typing import Literal
 
 import numpy as np
 
-from gearrom.errors import ConfigError, MeasurementError
+from gearrom.errors import MeasurementError
 from gearrom.signal.readers import EdgeChunk, first_bad, fmt_t
+from gearrom.signal.settings import ReadSettings
 
-
-@dataclass(frozen=True)
-class ReadSettings:
-    """Settings of the reader and the edge checks.
-
-    Parameters
-    ----------
-    fs_hz : float or None
-        Rate of the common time grid in Hz. None: the slower channel's nominal edge rate, divided
-        by the smallest integer that brings it to at most ``fs_max_hz``.
-    fs_max_hz : float
-        Upper limit of the automatic grid rate, Hz.
-    chunk_rows : int
-        Rows read per chunk (memory is proportional to it).
-    double_ratio, gap_ratio : float
-        Interval/reference below which an edge is spurious, above which edges were dropped.
-    integer_tol : float
-        Largest distance of the interval/reference ratio from an integer m for a gap to count as
-        m - 1 dropped edges.
-    max_fill_edges : int
-        Most consecutive dropped edges that are filled; longer gaps are errors.
-    max_repairs : int
-        More repairs than this per channel is an error (the data are not trustworthy).
-    rpm_tolerance : float
-        Allowed relative difference between ``rpm_in`` of the metadata and the measured speed.
-    strict : bool
-        Treat every repair as an error.
-    edge_interp : {"linear", "cubic"}
-        Angle between edges: a cubic Hermite through the edges with centred-difference slopes
-        (default; error O(h^3)), or linear (O(h^2): a TE component with p edges per period on the
-        channel that carries it is attenuated by sinc^2(pi/p) ~ 1 - (2 pi/p)^2/12).
-    max_grid_samples : int
-        Most samples of the common time grid per channel (8 bytes each). A grid rate far above
-        the edge rate, or an overlong record, is an error instead of an allocation that exhausts
-        the memory.
-    allow_outside_data : bool
-        Read a data file outside the measurement JSON's folder tree (refused by default).
-    """
-
-    fs_hz: float | None = None
-    fs_max_hz: float = 200e3
-    chunk_rows: int = 2_000_000
-    double_ratio: float = 0.5
-    gap_ratio: float = 1.5
-    integer_tol: float = 0.3
-    max_fill_edges: int = 64
-    max_repairs: int = 1000
-    rpm_tolerance: float = 0.05
-    strict: bool = False
-    edge_interp: Literal["linear", "cubic"] = "cubic"
-    max_grid_samples: int = 100_000_000
-    allow_outside_data: bool = False
-
-    def __post_init__(self):
-        if self.fs_hz is not None and not (isinstance(self.fs_hz, (int, float)) and math.isfinite(self.fs_hz)
-                                           and self.fs_hz > 0):
-            raise ConfigError(f"Parameter fs_hz={self.fs_hz!r} must be a finite number > 0 or None")
-        if not (isinstance(self.fs_max_hz, (int, float)) and math.isfinite(self.fs_max_hz) and self.fs_max_hz > 0):
-            raise ConfigError(f"Parameter fs_max_hz={self.fs_max_hz!r} must be a finite number > 0")
-        if not (isinstance(self.rpm_tolerance, (int, float)) and math.isfinite(self.rpm_tolerance)
-                and self.rpm_tolerance > 0):
-            raise ConfigError(f"Parameter rpm_tolerance={self.rpm_tolerance!r} must be a finite number > 0")
-        if isinstance(self.max_grid_samples, bool) or not isinstance(self.max_grid_samples, int) \
-                or self.max_grid_samples < 16:
-            raise ConfigError(f"Parameter max_grid_samples={self.max_grid_samples!r} must be an integer >= 16")
-        if not (0 < self.double_ratio < 1 < self.gap_ratio):
-            raise ConfigError(f"need 0 < double_ratio={self.double_ratio} < 1 < gap_ratio={self.gap_ratio}")
-        if self.chunk_rows < 16:
-            raise ConfigError(f"Parameter chunk_rows={self.chunk_rows} must be >= 16")
-        if self.edge_interp not in ("linear", "cubic"):
-            raise ConfigError(f"Parameter edge_interp={self.edge_interp!r} must be 'linear' or 'cubic'")
+__all__ = ["EdgeStream", "ReadSettings", "Repair", "check_time_resolution"]
 
 
 #: Largest float64 spacing of the time stamps, relative to the edge (or row) interval, that passes
@@ -168,8 +103,8 @@ class EdgeStream:
     ----------
     channel : str
         ``"input"`` or ``"output"``.
-    edges_per_rev : int
-        Counted edges per revolution.
+    edges_per_rev : float
+        Counted edges per shaft revolution.
     fs_hz : float
         Grid rate; grid times are ``k / fs_hz`` for integers k.
     file : str
@@ -177,13 +112,20 @@ class EdgeStream:
     label : str
         Row label used in messages (``"line"`` or ``"sample"``).
     settings : ReadSettings
+    period : int
+        Edges per decoding period (intervals are compared with those ``period`` edges away).
+    timing_resolution_s : float
+        Timing resolution of the edge times, s (intervals within twice this of the reference are
+        never repaired).
     """
 
-    _TAIL = 3  # edges held back per chunk so that each decision can look one edge ahead
-
-    def __init__(self, channel: str, edges_per_rev: int, fs_hz: float, file: str, label: str,
-                 settings: ReadSettings):
+    def __init__(self, channel: str, edges_per_rev: float, fs_hz: float, file: str, label: str,
+                 settings: ReadSettings, period: int = 1, timing_resolution_s: float = 0.0):
         self.channel, self.fs, self.file, self.label, self.s = channel, fs_hz, file, label, settings
+        self.period = int(period)
+        self.res = float(timing_resolution_s)
+        # edges held back per chunk: each decision looks 2 periods ahead (reference) and one edge more
+        self._TAIL = max(3, 2 * self.period + 1)
         self.dtheta = 2.0 * math.pi / edges_per_rev
         self.repairs: list[Repair] = []
         self.n_edges = 0
@@ -282,14 +224,15 @@ class EdgeStream:
                              f"time stamp decreases (previous edge at {self.label} {e_row[j]}, t={fmt_t(e_t[j])})")
         ref = self._reference(d)
         r = d / ref
-        unchecked = 2 - self._prev_d.size  # start of the channel: no speed reference before these intervals
+        unchecked = 2 * self.period - self._prev_d.size  # start: no speed reference before these intervals
         r[:unchecked] = 1.0
         # intervals [0, n_dec) are decided now; the last _TAIL edges wait for the next chunk
         n_dec = n - 1 if final else n - 1 - self._TAIL
         if n_dec <= 0:
             return
         keep = np.ones(n, bool)
-        small = np.flatnonzero(r[:n_dec] < self.s.double_ratio)
+        jit = 2.0 * self.res  # intervals within the timing jitter of the reference are normal
+        small = np.flatnonzero((r[:n_dec] < self.s.double_ratio) & (ref[:n_dec] - d[:n_dec] > jit))
         if small.size:
             r = r.copy()
             self._remove_doubles(small, r, keep, d, e_t, e_row)
@@ -304,19 +247,23 @@ class EdgeStream:
             acc = np.arange(n_acc)
             ta, dk, rk = e_t[:n_acc], d[:n_dec], r[:n_dec]
         inc = np.ones(dk.size, np.int64)
-        gaps = np.flatnonzero(rk > self.s.gap_ratio)
+        gaps = np.flatnonzero((rk > self.s.gap_ratio) & (dk - dk / rk > jit))
         for g in gaps:
             m = int(round(rk[g]))
             row, tt = int(e_row[acc[g + 1]]), float(ta[g + 1])
-            if abs(rk[g] - m) > self.s.integer_tol or m - 1 > self.s.max_fill_edges:
+            tol = self.s.integer_tol + jit * rk[g] / dk[g]  # the timing jitter in units of the reference
+            if abs(rk[g] - m) > tol or m - 1 > self.s.max_fill_edges:
                 raise self._fail(row, tt, f"gap of {dk[g]:.6g} s = {rk[g]:.2f} edge intervals at the local speed "
-                                 f"since the previous edge; not a whole number of dropped edges up to "
-                                 f"max_fill_edges={self.s.max_fill_edges}")
+                                 f"since the previous edge; not a whole number of dropped edges (within "
+                                 f"integer_tol={self.s.integer_tol:g} plus the timing resolution {self.res:.3g} s) "
+                                 f"up to max_fill_edges={self.s.max_fill_edges}; see the edge-check settings "
+                                 "([signal] gap_ratio, integer_tol, timing_resolution_s; gearrom te --gap-ratio, "
+                                 "--integer-tol, --timing-resolution-s) or cut the record (--t-start/--t-end)")
             inc[g] = m
             self._repair("dropped_edges", row, tt, m - 1, f"{m - 1} dropped edge(s) detected from the speed "
                          f"(interval {rk[g]:.2f} x local mean) and filled by interpolation")
         counts = self.last_count + np.concatenate([[0], np.cumsum(inc)])
-        self._prev_d = np.concatenate([self._prev_d, dk])[-2:]
+        self._prev_d = np.concatenate([self._prev_d, dk])[-2 * self.period:]
         self._emit(ta, counts)
         self.last_t, self.last_row, self.last_count = float(ta[-1]), int(e_row[acc[-1]]), int(counts[-1])
         rest = np.arange(n_acc, n)
@@ -324,12 +271,14 @@ class EdgeStream:
         self._tail_t, self._tail_row = e_t[rest], e_row[rest]
 
     def _reference(self, d: np.ndarray) -> np.ndarray:
-        """Local reference of each interval: median of the two intervals before and the two after it
-        (the mean of the middle two of four = (sum - max - min) / 2); the ends are padded."""
+        """Local reference of each interval: median of the intervals ``2P`` and ``P`` edges before and
+        ``P`` and ``2P`` after it (``P`` = period; the mean of the middle two of four =
+        (sum - max - min) / 2); the ends are padded."""
+        p = self.period
         ext = np.concatenate([self._prev_d, d])
-        ext = np.concatenate([np.full(2 - self._prev_d.size, ext[0]), ext, np.full(2, ext[-1])])
+        ext = np.concatenate([np.full(2 * p - self._prev_d.size, ext[0]), ext, np.full(2 * p, ext[-1])])
         n = d.size
-        a, b, c, e = ext[0:n], ext[1:n + 1], ext[3:n + 3], ext[4:n + 4]
+        a, b, c, e = ext[0:n], ext[p:n + p], ext[3 * p:n + 3 * p], ext[4 * p:n + 4 * p]
         hi = np.maximum(np.maximum(a, b), np.maximum(c, e))
         lo = np.minimum(np.minimum(a, b), np.minimum(c, e))
         ref = (a + b + c + e - hi - lo) * 0.5

@@ -33,8 +33,11 @@ class FilterSettings:
         Order of the high-pass.
     zero_phase : bool
         Forward-backward filtering (no delay) instead of causal filtering.
-    detrend : {"linear", "constant", "none"}
-        Removed before filtering ("linear" removes offset and nominal slope).
+    detrend : {"angle", "linear", "constant", "none"}
+        Removed before filtering: "angle" a least-squares line in the input angle (offset and
+        nominal slope; the slope of ``r_b1 theta_1 - r_b2 theta_2`` is proportional to the angle, so
+        this holds for run-ups and speed changes too), "linear" a line in time (the same for a
+        steady run).
     """
 
     lowpass_hz: float | None = None
@@ -42,7 +45,7 @@ class FilterSettings:
     highpass_hz: float | None = None
     highpass_order: int = 2
     zero_phase: bool = True
-    detrend: Literal["linear", "constant", "none"] = "linear"
+    detrend: Literal["angle", "linear", "constant", "none"] = "angle"
 
     def __post_init__(self):
         for name in ("lowpass_hz", "highpass_hz"):
@@ -53,8 +56,8 @@ class FilterSettings:
             v = getattr(self, name)
             if not (isinstance(v, int) and 1 <= v <= 12):
                 raise ConfigError(f"Parameter {name}={v!r} must be an integer in 1..12")
-        if self.detrend not in ("linear", "constant", "none"):
-            raise ConfigError(f"Parameter detrend={self.detrend!r} must be 'linear', 'constant' or 'none'")
+        if self.detrend not in ("angle", "linear", "constant", "none"):
+            raise ConfigError(f"Parameter detrend={self.detrend!r} must be 'angle', 'linear', 'constant' or 'none'")
 
 
 def _check_fc(fc: float, fs: float, what: str) -> None:
@@ -109,7 +112,8 @@ def highpass(x: np.ndarray, fs_hz: float, cutoff_hz: float, order: int = 2, *, z
     return signal.sosfiltfilt(sos, x) if zero_phase else signal.sosfilt(sos, x)
 
 
-def apply_filters(x: np.ndarray, fs_hz: float, settings: FilterSettings) -> np.ndarray:
+def apply_filters(x: np.ndarray, fs_hz: float, settings: FilterSettings,
+                  angle_rad: np.ndarray | None = None) -> np.ndarray:
     """Detrend, high-pass and low-pass ``x`` as ``settings`` say.
 
     Parameters
@@ -119,6 +123,8 @@ def apply_filters(x: np.ndarray, fs_hz: float, settings: FilterSettings) -> np.n
     fs_hz : float
         Its sampling rate, Hz.
     settings : FilterSettings
+    angle_rad : ndarray, optional
+        Input angle at the samples, rad (detrend "angle"; without it, the line is fitted in time).
 
     Returns
     -------
@@ -126,7 +132,12 @@ def apply_filters(x: np.ndarray, fs_hz: float, settings: FilterSettings) -> np.n
         A new array.
     """
     y = np.asarray(x, dtype=np.float64)
-    if settings.detrend != "none":
+    if settings.detrend == "angle" and angle_rad is not None:
+        a = np.asarray(angle_rad, dtype=np.float64) - float(np.mean(angle_rad))
+        y = y - y.mean() - a * (float(a @ (y - y.mean())) / float(a @ a) if a.any() else 0.0)
+    elif settings.detrend == "angle":
+        y = signal.detrend(y, type="linear")
+    elif settings.detrend != "none":
         y = signal.detrend(y, type=settings.detrend)
     if settings.highpass_hz is not None:
         y = highpass(y, fs_hz, settings.highpass_hz, settings.highpass_order, zero_phase=settings.zero_phase)

@@ -20,12 +20,16 @@ from gearrom.errors import MeasurementError
 
 FORMAT = "gearrom.measurement/1"
 CHANNELS = ("input", "output")
-Kind = Literal["edges", "angles"]
+Kind = Literal["edges", "angles", "quadrature"]
+KINDS = ("edges", "angles", "quadrature")
 
 _TOP_KEYS = {"format", "description", "rpm_in", "torque_out_Nm", "kind", "data", "clock_hz",
-             "encoders", "config", "extra"}
+             "encoders", "config", "extra", "sample_rate_hz", "quadrature"}
 _REQUIRED = {"format", "rpm_in", "kind", "data"}
-_ENCODER_KEYS = {"edges_per_rev", "location"}
+_ENCODER_KEYS = {"edges_per_rev", "location", "ratio"}
+#: Data file suffixes per kind (sampled A/B signals also come from HDF5 and MATLAB files).
+SUFFIXES = {"edges": (".csv", ".tdms"), "angles": (".csv", ".tdms"),
+            "quadrature": (".csv", ".tdms", ".h5", ".hdf5", ".mat")}
 
 
 @dataclass(frozen=True)
@@ -35,13 +39,31 @@ class EncoderInfo:
     Parameters
     ----------
     edges_per_rev : int
-        Counted edges per shaft revolution (pulses/rev times the decoding factor, e.g. 4).
+        Counted edges per encoder revolution (pulses/rev times the decoding factor, e.g. 4; for
+        kind ``quadrature`` lines times the decoding factor).
     location : str
         Where the encoder sits, e.g. ``"sensor"`` or ``"clutch"`` (informative only).
+    ratio : float
+        Encoder revolutions per shaft revolution (a sensor gear or belt; 1 on the shaft). The
+        shaft angle of edge n is ``n * 2*pi / (edges_per_rev * ratio)``.
+    lines : int or None
+        Lines (pulses) per revolution of a sampled quadrature encoder.
+    a, b, z : str or None
+        Names of the A, B and (optional) index channels in a sampled data file.
     """
 
     edges_per_rev: int
     location: str = "sensor"
+    ratio: float = 1.0
+    lines: int | None = None
+    a: str | None = None
+    b: str | None = None
+    z: str | None = None
+
+    @property
+    def counts_per_shaft_rev(self) -> float:
+        """Counted edges per shaft revolution, ``edges_per_rev * ratio``."""
+        return self.edges_per_rev * self.ratio
 
 
 @dataclass(frozen=True)
@@ -68,6 +90,10 @@ class MeasurementMeta:
     data_inside : bool
         The data file lies in the JSON's folder tree. Readers refuse other data files unless
         ``ReadSettings.allow_outside_data`` is set, and never quote their content in messages.
+    sample_rate_hz : float or None
+        Sample rate of a sampled record (kind "quadrature") without a time column, Hz.
+    quadrature : QuadratureInfo or None
+        Decoder settings of kind "quadrature" (:mod:`gearrom.signal.qmeta`).
     """
 
     path: Path
@@ -81,11 +107,14 @@ class MeasurementMeta:
     config: str | None = None
     extra: dict[str, Any] = field(default_factory=dict)
     data_inside: bool = True
+    sample_rate_hz: float | None = None
+    quadrature: Any = None
 
     @property
-    def data_format(self) -> Literal["csv", "tdms"]:
-        """``"csv"`` or ``"tdms"``, from the data file extension."""
-        return "tdms" if self.data_path.suffix.lower() == ".tdms" else "csv"
+    def data_format(self) -> Literal["csv", "tdms", "hdf5", "mat"]:
+        """``"csv"``, ``"tdms"``, ``"hdf5"`` or ``"mat"``, from the data file extension."""
+        suffix = self.data_path.suffix.lower()
+        return {".tdms": "tdms", ".h5": "hdf5", ".hdf5": "hdf5", ".mat": "mat"}.get(suffix, "csv")
 
 
 def _num(doc: dict, key: str, where: str, *, positive: bool = True, required: bool = True) -> float | None:
@@ -141,8 +170,8 @@ def read_meta(path: str | Path) -> MeasurementMeta:
     if doc["format"] != FORMAT:
         raise MeasurementError(f"{where}: key 'format' must be {FORMAT!r}, got {doc['format']!r}")
     kind = doc["kind"]
-    if kind not in ("edges", "angles"):
-        raise MeasurementError(f"{where}: key 'kind' must be 'edges' or 'angles', got {kind!r}")
+    if kind not in KINDS:
+        raise MeasurementError(f"{where}: key 'kind' must be one of {list(KINDS)}, got {kind!r}")
     data = doc["data"]
     if not isinstance(data, str) or not data.strip():
         raise MeasurementError(f"{where}: key 'data' must be a non-empty file name, got {data!r}")
@@ -152,9 +181,9 @@ def read_meta(path: str | Path) -> MeasurementMeta:
         data_path = (path.parent / data).resolve()
     except (OSError, ValueError, RuntimeError) as exc:
         raise MeasurementError(f"{where}: key 'data': invalid file name {data!r}: {exc}") from None
-    if data_path.suffix.lower() not in (".csv", ".tdms"):
-        raise MeasurementError(f"{where}: key 'data': unsupported data file type {data_path.suffix!r} "
-                               "(use .csv or .tdms)")
+    if data_path.suffix.lower() not in SUFFIXES[kind]:
+        raise MeasurementError(f"{where}: key 'data': unsupported data file type {data_path.suffix!r} for kind "
+                               f"{kind!r} (use {' or '.join(SUFFIXES[kind])})")
     rpm_in = _num(doc, "rpm_in", where)
     torque = _num(doc, "torque_out_Nm", where, positive=False, required=False)
     clock_hz = _num(doc, "clock_hz", where, required=kind == "edges")
@@ -164,7 +193,16 @@ def read_meta(path: str | Path) -> MeasurementMeta:
     extra = doc.get("extra", {})
     if not isinstance(extra, dict):
         raise MeasurementError(f"{where}: key 'extra' must be an object, got {extra!r}")
-    encoders = _read_encoders(doc.get("encoders"), where, required=kind == "edges")
+    sample_rate = _num(doc, "sample_rate_hz", where, required=False)
+    if kind == "quadrature":
+        from gearrom.signal.qmeta import read_quadrature_meta
+
+        quad, encoders = read_quadrature_meta(doc, where)
+    else:
+        for key in ("quadrature", "sample_rate_hz"):
+            if key in doc:
+                raise MeasurementError(f"{where}: key {key!r} belongs to kind 'quadrature', not {kind!r}")
+        quad, encoders = None, _read_encoders(doc.get("encoders"), where, required=kind == "edges")
     config = _resolve_config(doc.get("config"), path, where)
     try:
         inside = data_path.is_relative_to(path.parent.resolve())
@@ -172,7 +210,8 @@ def read_meta(path: str | Path) -> MeasurementMeta:
         inside = False
     return MeasurementMeta(path=path, data_path=data_path, kind=kind, rpm_in=rpm_in, clock_hz=clock_hz,
                            encoders=encoders, torque_out_Nm=torque, description=doc.get("description", ""),
-                           config=config, extra=extra, data_inside=inside)
+                           config=config, extra=extra, data_inside=inside, sample_rate_hz=sample_rate,
+                           quadrature=quad)
 
 
 def _resolve_config(value: str | None, path: Path, where: str) -> str | None:
@@ -221,8 +260,17 @@ def _read_encoders(enc: Any, where: str, *, required: bool) -> dict[str, Encoder
         loc = e.get("location", "sensor")
         if not isinstance(loc, str):
             raise MeasurementError(f"{w}: 'location' must be a string, got {loc!r}")
-        out[ch] = EncoderInfo(edges_per_rev=n, location=loc)
+        out[ch] = EncoderInfo(edges_per_rev=n, location=loc, ratio=encoder_ratio(e, w))
     return out
+
+
+def encoder_ratio(e: dict, where: str) -> float:
+    """The optional ``ratio`` key of an encoder (encoder revolutions per shaft revolution, default 1)."""
+    val = e.get("ratio", 1.0)
+    if isinstance(val, bool) or not isinstance(val, (int, float)) or not (math.isfinite(val) and 0 < val <= 1e3):
+        raise MeasurementError(f"{where}: 'ratio' must be a number in (0, 1000] (encoder revolutions per shaft "
+                               f"revolution), got {val!r}")
+    return float(val)
 
 
 @dataclass(frozen=True)

@@ -36,7 +36,8 @@ class TEResult:
     mesh : GearMeshInfo
     settings : TESettings
     rpm_in : float
-        Measured mean input speed, rpm.
+        Measured input speed, rpm: the plateau speed (the speed the record spends most time at;
+        the mean speed of a steady run).
     rpm_in_nominal : float
         ``rpm_in`` of the metadata.
     repairs : tuple of dict
@@ -44,6 +45,9 @@ class TEResult:
     source, description : str
     torque_out_Nm : float or None
     n_edges : dict
+    info : dict
+        Reader and processing reports: decoding and trimming of sampled records, time window,
+        timing resolution, estimated encoder scale.
     """
 
     t_s: np.ndarray
@@ -60,12 +64,30 @@ class TEResult:
     description: str = ""
     torque_out_Nm: float | None = None
     n_edges: dict = dataclasses.field(default_factory=dict)
+    info: dict = dataclasses.field(default_factory=dict)
 
     # -- derived quantities -------------------------------------------------------------------
     @property
     def gmf_hz(self) -> float:
-        """Gear mesh frequency z1 * n_in / 60 at the measured speed, Hz (seed eq. 4)."""
+        """Gear mesh frequency z1 * n_in / 60 at the measured (plateau) speed, Hz (seed eq. 4)."""
         return self.mesh.z1 * self.rpm_in / 60.0
+
+    @cached_property
+    def speed(self) -> dict:
+        """Speed profile and steadiness (:func:`gearrom.signal.runup.steadiness`)."""
+        from gearrom.signal.runup import steadiness
+
+        return steadiness(self.t_s, self.theta_in_rad)
+
+    def order_map(self, revs_per_block: int = 1) -> dict:
+        """Order tracking: GMF harmonics and shaft orders 1-2 per block of input revolutions
+        (:func:`gearrom.signal.runup.order_map`)."""
+        from gearrom.signal.runup import order_map
+
+        orders = [1.0, 2.0, self.mesh.ratio, 2 * self.mesh.ratio] + \
+            [h * self.mesh.z1 for h in range(1, self.settings.n_harmonics + 1)]
+        return order_map(self.te_m, self.theta_in_rad, self.t_s, orders, revs_per_block=revs_per_block,
+                         samples_per_rev=min(self.samples_per_rev, 4096))
 
     @property
     def revs_in(self) -> float:
@@ -174,11 +196,16 @@ class TEResult:
             "filters": dataclasses.asdict(self.settings.filters),
             "n_edges": self.n_edges,
             "repairs": list(self.repairs),
+            "speed": self.speed,
+            "order_tracking": None if self.speed["steady"] else self.order_map(),
+            **{k: v for k, v in self.info.items() if k in ("quadrature", "trimmed", "window_s", "encoder_scale",
+                                                           "timing_resolution_s")},
         }
 
     # -- plot -------------------------------------------------------------------------------------
     def plot(self, fmax_hz: float | None = None):
-        """TE over two input revolutions, amplitude spectrum with GMF marks, TSA per input/output rev.
+        """TE over the whole record with the speed profile, amplitude spectrum with GMF marks, TSA per
+        input/output rev, and for a non-steady record the order tracks (GMF harmonics vs time).
 
         Returns
         -------
@@ -186,13 +213,20 @@ class TEResult:
         """
         from matplotlib.figure import Figure
 
-        fig = Figure(figsize=(10, 9), layout="constrained")
-        ax1, ax2, ax3 = fig.subplots(3, 1)
-        n2 = np.searchsorted(self.theta_in_rad, self.theta_in_rad[0] + 4 * math.pi)
-        ax1.plot(self.t_s[:n2] - self.t_s[0], self.te_m[:n2] / UM, lw=0.8)
-        ax1.set(xlabel="time [s] (two input revolutions)", ylabel=f"TE ({self.settings.te_on}) [um]",
-                title=f"{Path(self.source).name}: {self.rpm_in:.0f} rpm, rms {self.te_rms_m / UM:.3g} um, "
+        steady = self.speed["steady"]
+        fig = Figure(figsize=(10, 9 if steady else 12), layout="constrained")
+        axes = fig.subplots(3 if steady else 4, 1)
+        ax1, ax2, ax3 = axes[:3]
+        step = max(1, self.t_s.size // 20000)
+        ax1.plot(self.t_s[::step], self.te_m[::step] / UM, lw=0.6)
+        ax1.set(xlabel="time [s]", ylabel=f"TE ({self.settings.te_on}) [um]",
+                title=f"{Path(self.source).name}: {self.rpm_in:.0f} rpm"
+                      f"{'' if steady else ' plateau (not steady)'}, rms {self.te_rms_m / UM:.3g} um, "
                       f"ptp {self.te_ptp_m / UM:.3g} um")
+        axs = ax1.twinx()
+        prof = self.speed["profile"]
+        axs.plot(prof["t_s"], prof["rpm_in"], color="C3", lw=0.8)
+        axs.set_ylabel("input speed [rpm]", color="C3")
         sp = self.spectrum()
         fmax = fmax_hz or min(self.fs_hz / 2, 4.5 * self.gmf_hz)
         m = sp.x <= fmax
@@ -216,6 +250,14 @@ class TEResult:
             ax3.plot(np.degrees(ang), avg / UM, color=color, lw=0.8, label=f"per {kind} rev ({n} revs)")
         ax3.set(xlabel="shaft angle [deg]", ylabel="TSA of TE [um]", title="time-synchronous averages")
         ax3.legend(loc="upper right", fontsize=8)
+        if not steady:
+            om = self.order_map()
+            amp = np.array(om["amplitude_m"])
+            for j, order in enumerate(om["orders"]):
+                if order >= self.mesh.z1 and amp.size:
+                    axes[3].plot(om["t_s"], amp[:, j] / UM, marker=".", lw=0.8, label=f"order {order:g}")
+            axes[3].set(xlabel="time [s]", ylabel="amplitude [um]", title="order tracking (per input revolution)")
+            axes[3].legend(loc="upper right", fontsize=8)
         return fig
 
     # -- persistence --------------------------------------------------------------------------
@@ -225,7 +267,8 @@ class TEResult:
         meta = {"gearrom": "TEResult/1", "fs_hz": self.fs_hz, "mesh": dataclasses.asdict(self.mesh),
                 "settings": dataclasses.asdict(self.settings), "rpm_in": self.rpm_in,
                 "rpm_in_nominal": self.rpm_in_nominal, "repairs": list(self.repairs), "source": self.source,
-                "description": self.description, "torque_out_Nm": self.torque_out_Nm, "n_edges": self.n_edges}
+                "description": self.description, "torque_out_Nm": self.torque_out_Nm, "n_edges": self.n_edges,
+                "info": self.info}
         with open(path, "wb") as fh:  # a file handle keeps numpy from appending ".npz"
             np.savez_compressed(fh, t_s=self.t_s, te_m=self.te_m, theta_in_rad=self.theta_in_rad,
                                 theta_out_rad=self.theta_out_rad, meta_json=np.array(json.dumps(meta)))
@@ -247,4 +290,4 @@ class TEResult:
         return cls(**arrays, fs_hz=float(meta["fs_hz"]), mesh=GearMeshInfo(**meta["mesh"]), settings=TESettings(**st),
                    rpm_in=float(meta["rpm_in"]), rpm_in_nominal=float(meta["rpm_in_nominal"]),
                    repairs=tuple(meta["repairs"]), source=meta["source"], description=meta["description"],
-                   torque_out_Nm=meta["torque_out_Nm"], n_edges=meta["n_edges"])
+                   torque_out_Nm=meta["torque_out_Nm"], n_edges=meta["n_edges"], info=meta.get("info", {}))

@@ -10,7 +10,13 @@ the arc-length difference on the pitch circles of the seed's eqs. 37-40 (there w
 shaft-end velocities, ``r/r_s * integral(v_s dt) = r * theta``). Pitch TE = line TE / cos(alpha_t).
 
 The unknown angle offsets and the nominal slope (the residual of ``r_b1 - r_b2 z1/z2`` and of any
-ratio rounding) are removed by a least-squares line (``FilterSettings.detrend = "linear"``).
+ratio rounding) are removed by a least-squares line in the input angle (``FilterSettings.detrend =
+"angle"``, valid for run-ups as well as steady runs).
+
+An encoder that does not give its nominal counts per shaft revolution (a sensor gear, a belt,
+a wrong line count) shows as a speed ratio off z1/z2. ``TESettings.estimate_scale`` names the
+encoder whose scale is then estimated from the data (the measured ratio over z1/z2) and
+corrected; the estimate is reported (``TEResult.info["encoder_scale"]``).
 """
 from __future__ import annotations
 
@@ -114,6 +120,9 @@ class TESettings:
         Allowed relative difference of the measured speed ratio from z1/z2.
     n_harmonics, n_sidebands : int
         GMF harmonics and shaft-order sidebands annotated.
+    estimate_scale : {"none", "input", "output"}
+        Estimate the counts per shaft revolution of this encoder from the measured speed ratio
+        (instead of the ratio check) and correct its angle.
     """
 
     te_on: Literal["line", "pitch"] = "line"
@@ -123,8 +132,11 @@ class TESettings:
     ratio_tolerance: float = 0.005
     n_harmonics: int = 3
     n_sidebands: int = 2
+    estimate_scale: Literal["none", "input", "output"] = "none"
 
     def __post_init__(self):
+        if self.estimate_scale not in ("none", "input", "output"):
+            raise ConfigError(f"estimate_scale={self.estimate_scale!r} must be 'none', 'input' or 'output'")
         if self.te_on not in ("line", "pitch"):
             raise ConfigError(f"te_on={self.te_on!r} must be 'line' or 'pitch'")
         if self.samples_per_rev is not None and self.samples_per_rev < 8:
@@ -180,19 +192,39 @@ def compute_te(data: AngleData, mesh: GearMeshInfo, settings: TESettings | None 
     if not span1 > 0:
         raise MeasurementError(f"{data.meta.data_path}: channel 'input' does not rotate")
     ratio = (th2[-1] - th2[0]) / span1
-    if abs(ratio / mesh.ratio - 1) > settings.ratio_tolerance:
+    info = dict(getattr(data, "info", {}) or {})
+    if settings.estimate_scale != "none":
+        f = ratio / mesh.ratio
+        if settings.estimate_scale == "output":
+            th2 = th2 / f
+        else:
+            th1 = th1 * f
+        ch = settings.estimate_scale
+        enc = data.meta.encoders.get(ch)
+        info["encoder_scale"] = {
+            "channel": ch, "measured_ratio": ratio, "nominal_ratio": mesh.ratio,
+            "scale": f if ch == "output" else 1.0 / f,
+            "counts_per_shaft_rev": (enc.counts_per_shaft_rev * (f if ch == "output" else 1.0 / f)) if enc else None,
+            "detail": f"the {ch} encoder counts {f if ch == 'output' else 1 / f:.6g} x its nominal edges per shaft "
+                      f"revolution (set encoders.{ch}.ratio accordingly); its angle was corrected"}
+        log.warning("%s: %s", data.meta.path, info["encoder_scale"]["detail"])
+    elif abs(ratio / mesh.ratio - 1) > settings.ratio_tolerance:
         raise MeasurementError(
             f"{data.meta.data_path}: measured speed ratio output/input = {ratio:.6f} (t={data.t_s[0]:.6g}.."
             f"{data.t_s[-1]:.6g} s) does not match z1/z2 = {mesh.z1}/{mesh.z2} = {mesh.ratio:.6f} of "
             f"{mesh.name or 'the gear data'} (tolerance {100 * settings.ratio_tolerance:g} %): wrong config "
-            "or wrong edges_per_rev?")
-    te = apply_filters(te_from_angles(th1, th2, mesh, settings.te_on), data.fs_hz, settings.filters)
+            "or wrong edges_per_rev? (an encoder scale or sensor ratio: encoders.<channel>.ratio, or estimate it: "
+            "gearrom te --estimate-scale output; tolerance: --ratio-tolerance)")
+    te = apply_filters(te_from_angles(th1, th2, mesh, settings.te_on), data.fs_hz, settings.filters, angle_rad=th1)
     meta = data.meta
+    from gearrom.signal.runup import plateau_rpm, speed_profile
+
+    rpm = plateau_rpm(speed_profile(data.t_s, th1)[1])
     return TEResult(
         t_s=data.t_s, te_m=te, theta_in_rad=th1, theta_out_rad=th2, fs_hz=data.fs_hz, mesh=mesh,
-        settings=settings, rpm_in=data.rpm_in_measured, rpm_in_nominal=meta.rpm_in,
+        settings=settings, rpm_in=rpm, rpm_in_nominal=meta.rpm_in,
         repairs=tuple(r.to_dict() for r in data.repairs), source=str(meta.path), description=meta.description,
-        torque_out_Nm=meta.torque_out_Nm, n_edges=dict(data.n_edges))
+        torque_out_Nm=meta.torque_out_Nm, n_edges=dict(data.n_edges), info=info)
 
 
 def resolve_mesh(meta: MeasurementMeta, mesh: GearMeshInfo | None = None,

@@ -1,0 +1,119 @@
+"""Settings of the measurement reader and the edge checks (:class:`ReadSettings`)."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+from gearrom.errors import ConfigError
+
+
+@dataclass(frozen=True)
+class ReadSettings:
+    """Settings of the reader and the edge checks.
+
+    Parameters
+    ----------
+    fs_hz : float or None
+        Rate of the common time grid in Hz. None: the slower channel's nominal edge rate, divided
+        by the smallest integer that brings it to at most ``fs_max_hz``.
+    fs_max_hz : float
+        Upper limit of the automatic grid rate, Hz.
+    chunk_rows : int
+        Rows read per chunk (memory is proportional to it).
+    double_ratio, gap_ratio : float
+        Interval/reference below which an edge is spurious, above which edges were dropped.
+    integer_tol : float
+        Largest distance of the interval/reference ratio from an integer m for a gap to count as
+        m - 1 dropped edges.
+    max_fill_edges : int
+        Most consecutive dropped edges that are filled; longer gaps are errors.
+    max_repairs : int
+        More repairs than this per channel is an error (the data are not trustworthy).
+    rpm_tolerance : float
+        Allowed relative difference between ``rpm_in`` of the metadata and the measured speed.
+    strict : bool
+        Treat every repair as an error.
+    edge_interp : {"linear", "cubic"}
+        Angle between edges: a cubic Hermite through the edges with centred-difference slopes
+        (default; error O(h^3)), or linear (O(h^2): a TE component with p edges per period on the
+        channel that carries it is attenuated by sinc^2(pi/p) ~ 1 - (2 pi/p)^2/12).
+    max_grid_samples : int
+        Most samples of the common time grid per channel (8 bytes each). A grid rate far above
+        the edge rate, or an overlong record, is an error instead of an allocation that exhausts
+        the memory.
+    allow_outside_data : bool
+        Read a data file outside the measurement JSON's folder tree (refused by default).
+    timing_resolution_s : float or None
+        Timing resolution of the edge times, s: an interval within twice this of its reference is
+        never repaired. None: ``1/clock_hz`` (kind ``edges``) or the sample step (``quadrature``).
+    edge_period : int or None
+        Edges per decoding period whose intervals are compared (4 for x4 decoding, whose A/B phase
+        error makes neighbouring intervals unequal). None: the decoding factor of kind
+        ``quadrature``, 1 for kind ``edges``.
+    t_start_s, t_end_s : float or None
+        Time window of the record that is used, s (None: from the start / to the end).
+    trim : bool
+        Kind ``quadrature``: cut standstill, jitter and reversals before and after the longest
+        stretch of forward rotation (reported); False: a reversal is an error.
+    min_speed_fraction : float
+        Standstill for trimming: no new edge for longer than the edge interval at this fraction of
+        the record's highest speed.
+    """
+
+    fs_hz: float | None = None
+    fs_max_hz: float = 200e3
+    chunk_rows: int = 2_000_000
+    double_ratio: float = 0.5
+    gap_ratio: float = 1.5
+    integer_tol: float = 0.3
+    max_fill_edges: int = 64
+    max_repairs: int = 1000
+    rpm_tolerance: float = 0.05
+    strict: bool = False
+    edge_interp: Literal["linear", "cubic"] = "cubic"
+    max_grid_samples: int = 100_000_000
+    allow_outside_data: bool = False
+    timing_resolution_s: float | None = None
+    edge_period: int | None = None
+    t_start_s: float | None = None
+    t_end_s: float | None = None
+    trim: bool = True
+    min_speed_fraction: float = 0.05
+
+    def __post_init__(self):
+        for name in ("timing_resolution_s", "t_start_s", "t_end_s"):
+            v = getattr(self, name)
+            if v is not None and not (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+                                      and (v >= 0 if name != "timing_resolution_s" else v > 0)):
+                raise ConfigError(f"Parameter {name}={v!r} must be a finite number "
+                                  f"{'> 0' if name == 'timing_resolution_s' else '>= 0'} or None")
+        if self.t_start_s is not None and self.t_end_s is not None and not self.t_end_s > self.t_start_s:
+            raise ConfigError(f"Parameter t_end_s={self.t_end_s!r} must be > t_start_s={self.t_start_s!r}")
+        if self.edge_period is not None and (isinstance(self.edge_period, bool) or self.edge_period not in (1, 2, 4)):
+            raise ConfigError(f"Parameter edge_period={self.edge_period!r} must be 1, 2 or 4 or None")
+        if not (isinstance(self.min_speed_fraction, (int, float)) and 0 < self.min_speed_fraction < 1):
+            raise ConfigError(f"Parameter min_speed_fraction={self.min_speed_fraction!r} must lie in (0, 1)")
+        if not (isinstance(self.integer_tol, (int, float)) and 0 < self.integer_tol < 0.5):
+            raise ConfigError(f"Parameter integer_tol={self.integer_tol!r} must lie in (0, 0.5)")
+        for name in ("max_fill_edges", "max_repairs"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+                raise ConfigError(f"Parameter {name}={v!r} must be an integer >= 0")
+        if self.fs_hz is not None and not (isinstance(self.fs_hz, (int, float)) and math.isfinite(self.fs_hz)
+                                           and self.fs_hz > 0):
+            raise ConfigError(f"Parameter fs_hz={self.fs_hz!r} must be a finite number > 0 or None")
+        if not (isinstance(self.fs_max_hz, (int, float)) and math.isfinite(self.fs_max_hz) and self.fs_max_hz > 0):
+            raise ConfigError(f"Parameter fs_max_hz={self.fs_max_hz!r} must be a finite number > 0")
+        if not (isinstance(self.rpm_tolerance, (int, float)) and math.isfinite(self.rpm_tolerance)
+                and self.rpm_tolerance > 0):
+            raise ConfigError(f"Parameter rpm_tolerance={self.rpm_tolerance!r} must be a finite number > 0")
+        if isinstance(self.max_grid_samples, bool) or not isinstance(self.max_grid_samples, int) \
+                or self.max_grid_samples < 16:
+            raise ConfigError(f"Parameter max_grid_samples={self.max_grid_samples!r} must be an integer >= 16")
+        if not (0 < self.double_ratio < 1 < self.gap_ratio):
+            raise ConfigError(f"need 0 < double_ratio={self.double_ratio} < 1 < gap_ratio={self.gap_ratio}")
+        if self.chunk_rows < 16:
+            raise ConfigError(f"Parameter chunk_rows={self.chunk_rows} must be >= 16")
+        if self.edge_interp not in ("linear", "cubic"):
+            raise ConfigError(f"Parameter edge_interp={self.edge_interp!r} must be 'linear' or 'cubic'")
