@@ -32,10 +32,14 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--micro-model", choices=("fe", "slices"), default="fe",
                         help="flank modifications through the quasi-static FE tables (default; no FE solve per "
                              "modification, the FE cache is built once per gear) or the analytical thin slices")
-    parser.add_argument("--rpm-tolerance", type=float, default=0.05,
-                        help="allowed relative mismatch of rpm_in and the data (default 0.05)")
+    parser.add_argument("--rpm-tolerance", type=float,
+                        help="allowed relative mismatch of rpm_in and the data (default: the config's [signal] "
+                             "rpm_tolerance, else 0.05)")
     parser.add_argument("--allow-outside-data", action="store_true",
                         help="read data files outside their measurement JSON's folder (refused by default)")
+    from gearrom.cli.te import add_read_args
+
+    add_read_args(parser, scale=False)
 
 
 #: Largest ``--max-effects`` accepted (the library has fewer effects; a larger count changes nothing).
@@ -57,6 +61,9 @@ def check_args(args: argparse.Namespace) -> tuple[str, ...] | None:
     check_number("--torque-out-Nm", args.torque_out_Nm, ge=-TORQUE_LIMIT_NM, le=TORQUE_LIMIT_NM, unit="N m")
     check_number("--max-effects", args.max_effects, ge=0, le=MAX_EFFECTS_LIMIT, integer=True)
     check_number("--rpm-tolerance", args.rpm_tolerance, gt=0, le=1)
+    from gearrom.cli.te import check_read_args
+
+    check_read_args(args)
     args.json_out = check_output("--json", args.json_out, stdout=True, what="JSON file")
     args.report = check_output_dir("--report", args.report)
     args.save = check_output("--save", args.save, what="result file")
@@ -88,9 +95,16 @@ def run(args: argparse.Namespace) -> int:
     from gearrom.calibrate import FitSettings, diagnose
     from gearrom.calibrate.simulator import default_simulator
     from gearrom.cli._args import prepare_output
-    from gearrom.signal import ReadSettings
+    import dataclasses
+
+    from gearrom.cli.te import OPTION_KEYS, read_overrides
+    from gearrom.signal.config import settings_from_config
 
     names = check_args(args)
+    # the reader follows the config's [signal] section (edge checks, window, trimming), options override it
+    _, read_settings = settings_from_config(args.config, {"rpm_tolerance": args.rpm_tolerance, **read_overrides(args)},
+                                            OPTION_KEYS)
+    read_settings = dataclasses.replace(read_settings, allow_outside_data=args.allow_outside_data)
     settings = FitSettings(max_effects=args.max_effects, candidates=names, shared_shaft_phase=args.shared_phase and not args.per_run_phase)
     sim = default_simulator(args.config, prefer=args.simulator)
     micro = None
@@ -99,7 +113,6 @@ def run(args: argparse.Namespace) -> int:
 
         micro = SliceMicroModel()
         sim.micro_model = micro  # the re-simulations use the same micro-geometry model as the fits
-    read_settings = ReadSettings(rpm_tolerance=args.rpm_tolerance, allow_outside_data=args.allow_outside_data)
     res = diagnose(args.config, args.measurements, simulator=sim, settings=settings, micro_model=micro,
                    read_settings=read_settings, torque_out_Nm=args.torque_out_Nm)
     if args.json_out == "-":

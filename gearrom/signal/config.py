@@ -9,7 +9,7 @@ Example (units in the key names; every key optional)::
     highpass_hz = 5.0         # Butterworth high-pass against drift; absent = none
     highpass_order = 2
     zero_phase = true
-    detrend = "linear"        # "linear", "constant" or "none"
+    detrend = "angle"         # "angle" (line in the input angle), "linear" (in time), "constant" or "none"
     window = "hann"           # window of the amplitude spectrum in Hz
     samples_per_rev = 4096    # angle grid for order spectra and averages
     edge_interp = "cubic"     # or "linear"
@@ -17,8 +17,22 @@ Example (units in the key names; every key optional)::
     rpm_tolerance = 0.05
     ratio_tolerance = 0.005
     strict = false
+    # edge checks (kind "edges" and "quadrature")
+    double_ratio = 0.5        # interval / reference below which an edge is spurious
+    gap_ratio = 1.5           # interval / reference above which edges were dropped
+    integer_tol = 0.3         # largest distance from a whole number of dropped edges
+    max_fill_edges = 64
+    max_repairs = 1000
+    timing_resolution_s = 2e-5  # default: 1/clock_hz, or the sample step of a sampled record
+    edge_period = 4           # compare intervals 4 edges apart (x4); default: the decoding factor
+    # time window and trimming
+    t_start_s = 0.5
+    t_end_s = 3.0
+    trim = true               # cut standstill/reversals of sampled records (reported)
+    min_speed_fraction = 0.05 # standstill: slower than this fraction of the highest speed
+    estimate_scale = "none"   # "input" / "output": estimate that encoder's counts per shaft rev
 
-``gearrom te`` starts from these and lets its options override them.
+``gearrom te`` and ``gearrom diagnose`` start from these and lets its options override them.
 """
 from __future__ import annotations
 
@@ -47,6 +61,18 @@ SIGNAL_KEYS: dict[str, tuple[type | tuple[type, ...], str, str]] = {
     "grid_fs_hz": ((int, float), "read", "fs_hz"),
     "rpm_tolerance": ((int, float), "read", "rpm_tolerance"),
     "strict": (bool, "read", "strict"),
+    "double_ratio": ((int, float), "read", "double_ratio"),
+    "gap_ratio": ((int, float), "read", "gap_ratio"),
+    "integer_tol": ((int, float), "read", "integer_tol"),
+    "max_fill_edges": (int, "read", "max_fill_edges"),
+    "max_repairs": (int, "read", "max_repairs"),
+    "timing_resolution_s": ((int, float), "read", "timing_resolution_s"),
+    "edge_period": (int, "read", "edge_period"),
+    "t_start_s": ((int, float), "read", "t_start_s"),
+    "t_end_s": ((int, float), "read", "t_end_s"),
+    "trim": (bool, "read", "trim"),
+    "min_speed_fraction": ((int, float), "read", "min_speed_fraction"),
+    "estimate_scale": (str, "te", "estimate_scale"),
 }
 
 

@@ -271,7 +271,7 @@ def select_run(t: np.ndarray, sign: np.ndarray, *, period: int, min_speed_fracti
     if trim:
         if keep[0] > 0:
             cut.append({"t_from_s": float(t[0]), "t_to_s": float(t[keep[0]]), "edges": int(keep[0]),
-                        "reason": "start-up from rest, standstill or reversal before the run"})
+                        "reason": "standstill, jitter or reversal before the run"})
         if keep[-1] < t.size - 1:
             cut.append({"t_from_s": float(t[keep[-1]]), "t_to_s": float(t[-1]), "edges": int(t.size - 1 - keep[-1]),
                         "reason": "standstill or reversal after the run"})
