@@ -273,10 +273,13 @@ class EdgeStream:
     def _reference(self, d: np.ndarray) -> np.ndarray:
         """Local reference of each interval: median of the intervals ``2P`` and ``P`` edges before and
         ``P`` and ``2P`` after it (``P`` = period; the mean of the middle two of four =
-        (sum - max - min) / 2); the ends are padded."""
+        (sum - max - min) / 2); the ends are padded with the first / last ``2P`` intervals, which keeps
+        each padded interval at its own phase of the decoding."""
         p = self.period
         ext = np.concatenate([self._prev_d, d])
-        ext = np.concatenate([np.full(2 * p - self._prev_d.size, ext[0]), ext, np.full(2 * p, ext[-1])])
+        left = np.resize(ext, 2 * p)[:2 * p - self._prev_d.size] if self._prev_d.size < 2 * p else ext[:0]
+        right = ext[-2 * p:] if ext.size >= 2 * p else np.resize(ext, 2 * p)
+        ext = np.concatenate([left, ext, right])
         n = d.size
         a, b, c, e = ext[0:n], ext[p:n + p], ext[3 * p:n + 3 * p], ext[4 * p:n + 4 * p]
         hi = np.maximum(np.maximum(a, b), np.maximum(c, e))

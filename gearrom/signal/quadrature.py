@@ -187,7 +187,8 @@ class QuadratureDecoder:
         else:  # x2: edges of A; x1: A rising forward / A falling backward (same physical edge)
             off = 1 if self.k == 2 else 3
             before = pos - s_e
-            keep = is_a & (np.floor_divide(pos + off, self.k) != np.floor_divide(before + off, self.k))
+            div = 4 // self.k  # x4 steps per counted edge
+            keep = is_a & (np.floor_divide(pos + off, div) != np.floor_divide(before + off, div))
         if z is not None:
             self._index(z, t, pos, t_e)
         if pos.size:
@@ -251,9 +252,9 @@ def select_run(t: np.ndarray, sign: np.ndarray, *, period: int, min_speed_fracti
     cd = np.concatenate([[0], np.cumsum(deep)])
     brk = np.zeros(new.size, bool)
     brk[1:] = cd[new[1:]] - cd[new[:-1] + 1] > 0  # a reversal between two new-position edges
-    if not trim and brk.any():
-        j = new[int(np.argmax(brk))]
-        raise MeasurementError(f"direction reversal before t={t[j]:.9g} s (trimming disabled)")
+    if not trim and deep.any():
+        j = int(np.argmax(deep))
+        raise MeasurementError(f"direction reversal at t={t[j]:.9g} s (trimming disabled)")
     tn = t[new]
     if standstill_s is None:
         span = tn[period:] - tn[:-period]
