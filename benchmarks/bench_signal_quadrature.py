@@ -1,0 +1,98 @@
+"""Benchmark of the sampled-quadrature reader (kind ``quadrature``): decoding + checks + TE.
+
+A record of two 1000-line encoders on a 15/30 pair (the small test stage of
+``tests/signal/quad_synth.py``), sampled at 2 MHz for ``--seconds`` with logic-level (int16)
+A/B samples in an HDF5 file, the input at 6000 rpm (x4 edge rate 400 kHz, 5 samples per edge
+interval). The file is processed by ``process_measurement`` in a fresh child process that
+reports its wall time and peak resident memory. Figures: edges/s, samples/s, peak memory;
+targets >= 5 M edges/s and memory bounded by the chunk size plus the decoded edges.
+
+Usage::
+
+    python benchmarks/bench_signal_quadrature.py [--seconds 10] [--dir /tmp/gearrom_bench_quad] [--keep]
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import resource
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+from _common import write_result
+
+FS, LINES, RPM, Z1, Z2 = 2e6, 1000, 6000.0, 15, 30
+CONFIG = Path(__file__).resolve().parents[1] / "tests" / "signal"
+
+
+def write(folder: Path, seconds: float) -> Path:
+    """Write the HDF5 record piece by piece (bounded memory) and its JSON."""
+    import h5py
+
+    sys.path.insert(0, str(CONFIG))
+    from quad_synth import CONFIG as TOML, RB1, RB2, te_truth
+
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "stage.toml").write_text(TOML.replace("rpm_in = 82.0", f"rpm_in = {RPM}"))
+    n = int(seconds * FS)
+    with h5py.File(folder / "rec.h5", "w") as f:
+        ds = {k: f.create_dataset(k, (n,), dtype="i2") for k in ("input_a", "input_b", "output_a", "output_b")}
+        step = 2_000_000
+        for a in range(0, n, step):
+            t = np.arange(a, min(n, a + step)) / FS
+            th1 = 2 * math.pi * RPM / 60 * t
+            th2 = (RB1 * th1 - te_truth(th1)) / RB2
+            for name, th in (("input", th1), ("output", th2)):
+                phi = LINES * th
+                ds[f"{name}_a"][a:a + t.size] = (np.sin(phi) > 0) * 1000
+                ds[f"{name}_b"][a:a + t.size] = (np.sin(phi - math.pi / 2) > 0) * 1000
+    doc = {"format": "gearrom.measurement/1", "kind": "quadrature", "data": "rec.h5", "rpm_in": RPM,
+           "config": "stage.toml", "sample_rate_hz": FS, "quadrature": {"threshold": 500, "hysteresis": 100},
+           "encoders": {"input": {"lines": LINES}, "output": {"lines": LINES}}}
+    path = folder / "rec.json"
+    path.write_text(json.dumps(doc))
+    return path
+
+
+def child(path: str) -> None:
+    from gearrom.signal import process_measurement
+
+    t0 = time.perf_counter()
+    res = process_measurement(path)
+    wall = time.perf_counter() - t0
+    print(json.dumps({"wall_s": wall, "peak_MB": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+                      "n_edges": res.n_edges, "gmf_um": res.gmf_lines()[0][0] * 1e6}))
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--seconds", type=float, default=10.0)
+    ap.add_argument("--dir", default="/tmp/gearrom_bench_quad")
+    ap.add_argument("--keep", action="store_true")
+    ap.add_argument("--child")
+    args = ap.parse_args()
+    if args.child:
+        child(args.child)
+        return
+    path = write(Path(args.dir), args.seconds)
+    out = subprocess.run([sys.executable, __file__, "--child", str(path)], capture_output=True, text=True, check=True)
+    r = json.loads(out.stdout.strip().splitlines()[-1])
+    edges = sum(r["n_edges"].values())
+    samples = int(args.seconds * FS)
+    figures = {"seconds": args.seconds, "sample_rate_hz": FS, "samples_per_channel": samples, "edges": edges,
+               "wall_s": r["wall_s"], "edges_per_s": edges / r["wall_s"], "samples_per_s": 4 * samples / r["wall_s"],
+               "peak_MB": r["peak_MB"], "data_MB": 4 * 2 * samples / 2**20, "gmf_um": r["gmf_um"],
+               "target_edges_per_s": 5e6}
+    write_result("bench_signal_quadrature", figures)
+    print(json.dumps(figures, indent=2))
+    if not args.keep:
+        for p in Path(args.dir).iterdir():
+            p.unlink()
+
+
+if __name__ == "__main__":
+    main()
