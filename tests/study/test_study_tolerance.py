@@ -1,0 +1,124 @@
+"""Tolerance sampling and the dask study on a real LocalCluster with 2 worker processes.
+
+References: the tolerance bounds themselves (every sample must lie inside them), the sample files on
+disk (one per sample index, counted independently of the study's own bookkeeping), and a direct
+in-process call of the per-sample task for the same deviations.
+"""
+import os
+import re
+import signal
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from gearrom.config import load_config
+from gearrom.errors import ConfigError
+from gearrom.study.scatter import SampleTask, StudySettings, run_sample, run_tolerance_study
+from gearrom.study.tolerance import ToleranceSpec, sample_deviations
+
+UM = 1e-6
+SETTINGS = StudySettings((3000.0, 4500.0), 120.0, 0.25, 32, "none")
+
+
+@pytest.fixture(scope="module")
+def pair():
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return load_config("thesis-rig").pair
+
+
+@pytest.fixture(scope="module")
+def spec(pair):
+    return ToleranceSpec.from_grade(pair, 6, tip_relief=((8 * UM, 4 * UM), (15 * UM, 5 * UM)),
+                                    lead_crowning=(4 * UM, 3 * UM))
+
+
+@pytest.fixture(scope="module")
+def client():
+    from distributed import Client, LocalCluster
+
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cl, \
+            Client(cl) as c:
+        yield c
+
+
+def test_samples_within_tolerance(pair, spec):
+    for i in range(50):
+        d = sample_deviations(spec, pair.z, i, seed=3)
+        for g in range(2):
+            fp = np.asarray(d.pitch[g])
+            assert np.max(np.abs(fp)) <= spec.f_pT[g] * (1 + 1e-12)
+            assert np.ptp(np.cumsum(fp - fp.mean())) <= spec.F_pT[g] * (1 + 1e-12)
+            assert 0 <= d.runout[g] <= spec.F_rT[g]
+            assert abs(d.tip_relief[g] - spec.tip_relief[g][0]) <= spec.tip_relief[g][1]
+        assert abs(d.helix_slope) <= sum(spec.f_HbT)
+        assert abs(d.lead_crowning - 4 * UM) <= 3 * UM
+    # reproducible per (seed, index), different across indices
+    assert sample_deviations(spec, pair.z, 7, 3) == sample_deviations(spec, pair.z, 7, 3)
+    assert sample_deviations(spec, pair.z, 7, 3) != sample_deviations(spec, pair.z, 8, 3)
+
+
+def test_drawing_file(tmp_path, pair):
+    f = tmp_path / "tol.toml"
+    f.write_text("[tolerance]\ngrade = 6\nF_rT_um = [22, 30]\ntip_relief_um = [[8, 4], [15, 5]]\n")
+    s = ToleranceSpec.from_toml(f, pair)
+    assert s.F_rT == pytest.approx((22 * UM, 30 * UM)) and s.tip_relief[1] == pytest.approx((15 * UM, 5 * UM))
+    f.write_text("[tolerance]\nF_rT = [22, 30]\n")
+    with pytest.raises(ConfigError, match="tolerance.F_rT"):
+        ToleranceSpec.from_toml(f, pair)
+
+
+def test_study_completes_and_resumes(tmp_path, spec, client, pair):
+    res = run_tolerance_study("thesis-rig", spec, 4, SETTINGS, tmp_path, client=client, progress=False)
+    assert res.gmf_um.shape == (4, 2, 3) and np.all(np.isfinite(res.gmf_um)) and res.metadata["reused"] == 0
+    # the distributed result equals an in-process run of the same sample's task
+    d = sample_deviations(spec, pair.z, 2, 0)
+    ref = run_sample(SampleTask(str(load_config("thesis-rig").source), d, SETTINGS, str(tmp_path / "ref.nc"), "ref"))
+    assert np.allclose(res.gmf_um[2], ref["gmf_um"], rtol=1e-9)
+    # runout scatters the DTE range: samples differ
+    assert np.ptp(res.dte_ptp_um[:, 0]) > 0
+    again = run_tolerance_study("thesis-rig", spec, 6, SETTINGS, tmp_path, client=client, progress=False)
+    assert again.metadata["reused"] == 4 and np.allclose(again.gmf_um[:4], res.gmf_um)
+    p = again.percentiles()["gmf_um"]
+    assert p.shape == (3, 2, 3) and np.all(p[0] <= p[1]) and np.all(p[1] <= p[2])
+    again.save(tmp_path / "s.nc")
+    from gearrom.study.result import ToleranceResult
+
+    back = ToleranceResult.load(tmp_path / "s.nc")
+    assert np.array_equal(back.gmf_um, again.gmf_um) and back.feature_names == again.feature_names
+
+
+def test_worker_killed_mid_study(tmp_path, spec, client):
+    n = 8
+    state = {"killed": None}
+
+    def kill_one(cl, done):
+        if done == 2 and state["killed"] is None:
+            pids = cl.run(os.getpid)  # {worker address: pid}
+            addr, pid = sorted(pids.items())[0]
+            state["killed"] = pid
+            os.kill(pid, signal.SIGKILL)
+
+    res = run_tolerance_study("thesis-rig", spec, n, SETTINGS, tmp_path, client=client, progress=False,
+                              on_result=kill_one, seed=5)
+    assert state["killed"] is not None
+    files = sorted((tmp_path / "samples").glob("sample_*.nc"))
+    idx = [int(re.match(r"sample_(\d+)_", f.name).group(1)) for f in files]
+    assert sorted(idx) == list(range(n))  # every sample once, no duplicates
+    assert not list((tmp_path / "samples").glob(".*part"))  # no partial files left
+    assert list(res.index) == list(range(n)) and np.all(np.isfinite(res.gmf_um))
+    client.wait_for_workers(2, timeout=60)
+
+
+def test_unreachable_scheduler(tmp_path, spec):
+    from gearrom.study import distributed
+
+    old = distributed.CONNECT_TIMEOUT_S
+    distributed.CONNECT_TIMEOUT_S = 2.0
+    try:
+        with pytest.raises(ConfigError, match="--scheduler"):
+            run_tolerance_study("thesis-rig", spec, 1, SETTINGS, tmp_path, scheduler="tcp://127.0.0.1:9", progress=False)
+    finally:
+        distributed.CONNECT_TIMEOUT_S = old
