@@ -202,7 +202,9 @@ def export_inp_3d(pair, theta: float, torque: float, path: str | Path, settings:
     path : str or Path
         The ``.inp`` file (ccx runs it as ``ccx -i <stem>``).
     settings : Mesh3DSettings, optional
-        Mesh density of both gears (default :class:`Mesh3DSettings`: the LTCA's default).
+        Mesh density of both gears (default: the LTCA's default :class:`Mesh3DSettings` with the
+        loaded flanks of every tooth that can touch at ``theta`` refined, ``refined_teeth``: the deck
+        resolves each contact in its own mesh, the LTCA only tooth 0's).
     penalty_MPa_per_mm : float
         Slope of the linear pressure-overclosure law [MPa/mm].
     rotation : float, optional
@@ -224,10 +226,11 @@ def export_inp_3d(pair, theta: float, torque: float, path: str | Path, settings:
         raise ModelError(f"contact must be 'surface' or 'node', got {contact!r}")
     if not (math.isfinite(mesh_factor) and mesh_factor > 0):
         raise ModelError(f"mesh_factor must be a positive number, got {mesh_factor!r}")
-    s = settings or Mesh3DSettings()
-    if mesh_factor != 1.0:
-        s = s.scaled(mesh_factor)
     pairs = contact_pairs(pair, theta, margin)
+    if settings is None:  # the LTCA's mesh with the flanks of every tooth that can touch refined
+        reach = max((abs(p) for p in pairs), default=0)
+        settings = Mesh3DSettings(refined_teeth=min(reach, Mesh3DSettings().teeth))
+    s = settings.scaled(mesh_factor) if mesh_factor != 1.0 else settings
     if not pairs or max(abs(p) for p in pairs) > s.teeth:
         raise ModelError(f"pairs {pairs} can touch at theta = {theta:.6g} rad but the elastic sector has teeth "
                          f"-{s.teeth}..{s.teeth}: use Mesh3DSettings(teeth=...) >= {max(map(abs, pairs), default=0)}")

@@ -55,6 +55,10 @@ class Mesh3DSettings:
         Teeth ``-teeth..teeth`` in the sector (2 teeth: 5-tooth sector, 3: 7-tooth sector).
     grading : float
         Distance over which the flank size grows to the tooth size.
+    refined_teeth : int
+        The loaded flanks of teeth ``-n..n`` get ``flank_size`` (0: tooth 0 only, the loaded tooth of
+        the influence coefficients; a CalculiX deck, which resolves every contact in its own mesh,
+        refines every tooth that can touch).
     """
 
     flank_size: float = 0.72e-3
@@ -63,6 +67,7 @@ class Mesh3DSettings:
     layer: float = 1.44e-3
     teeth: int = 3
     grading: float = 1.2e-3
+    refined_teeth: int = 0
 
     def __post_init__(self) -> None:
         for name in ("flank_size", "tooth_size", "body_size", "layer", "grading"):
@@ -74,11 +79,13 @@ class Mesh3DSettings:
                             f"{self.flank_size:.3g} / {self.tooth_size:.3g} / {self.body_size:.3g} m")
         if not isinstance(self.teeth, int) or not 2 <= self.teeth <= 4:
             raise MeshError(f"fe.mesh3d.teeth must be 2, 3 or 4 (a 5- to 9-tooth sector), got {self.teeth!r}")
+        if not isinstance(self.refined_teeth, int) or not 0 <= self.refined_teeth <= self.teeth:
+            raise MeshError(f"fe.mesh3d.refined_teeth must be in 0..teeth = {self.teeth}, got {self.refined_teeth!r}")
 
     def scaled(self, factor: float) -> "Mesh3DSettings":
         """All lengths times ``factor`` (refinement studies)."""
         return Mesh3DSettings(self.flank_size * factor, self.tooth_size * factor, self.body_size * factor,
-                              self.layer * factor, self.teeth, self.grading)
+                              self.layer * factor, self.teeth, self.grading, self.refined_teeth)
 
 
 @dataclass(frozen=True, eq=False)
@@ -174,7 +181,7 @@ def section_mesh(pair, i: int, s: Mesh3DSettings) -> Mesh2D:
         bore = [geo.addCircleArc(q[m], c0, q[(m + 1) % 4]) for m in range(4)]
         geo.addPlaneSurface([geo.addCurveLoop(loop), geo.addCurveLoop(bore)])
         geo.synchronize()
-        fine = named.get("involute_r_0", [])
+        fine = [c for j in range(-s.refined_teeth, s.refined_teeth + 1) for c in named.get(f"involute_r_{j}", [])]
         fillet0 = [c for key in ("fillet_r_0", "root_r_0", "fillet_l_0", "root_l_0") for c in named.get(key, [])]
         teeth = [c for cs in named.values() for c in cs]
         fields = [

@@ -52,7 +52,7 @@ def state_space(model: Drivetrain, rpm_in: float, torque_out: float | None = Non
 
     torque = float(model.metadata.get("torque_out_Nm", 120.0) if torque_out is None else torque_out)
     M, K, D = model.linear(rpm_in, torque)
-    k = model.excitation.mean_stiffness(torque)
+    k = model.mesh_stiffness(torque)
     c = model.mesh_damping(torque)
     n = model.ndof
     Minv = np.linalg.inv(M)

@@ -151,6 +151,83 @@ def _call_vectorised(fn, th1: np.ndarray, th2: np.ndarray) -> np.ndarray:
     return np.array([float(fn(a, b)) for a, b in zip(th1, th2)])
 
 
+@dataclass(frozen=True)
+class ForceMap:
+    """Static force-deflection map of the mesh over one mesh period (load-dependent mesh law).
+
+    At each mesh angle the transmitted force is piecewise linear in the deflection through the
+    knots ``(e[j](theta), f[j])``: row 0 is the kinematic TE (``f[0] = 0``, the separation point),
+    rows 1..m the static TE of the table's torques (``f[j] = T_j / r_b2``). Between knots the law has
+    the tangent stiffness of the FE force-deflection curve; beyond the last knot its last segment
+    continues. A one-torque table gives the secant law at that torque.
+
+    Attributes
+    ----------
+    theta : ndarray (n,)
+        Uniform input angles over one mesh period [rad].
+    e : ndarray (m + 1, n)
+        Deflection at the knot forces [m] (strictly increasing in ``j`` at every angle).
+    f : ndarray (m + 1,)
+        Knot forces on the transverse line of action [N].
+    """
+
+    theta: np.ndarray
+    e: np.ndarray
+    f: np.ndarray
+
+    @classmethod
+    def from_table(cls, excitation, rb2: float, n: int = 512) -> "ForceMap":
+        """The map of a :class:`~gearrom.excitation.table.MeshExcitation` (secant k and static TE per
+        torque; ``F = T / rb2``, kinematic TE ``e - F / k``) on ``n`` angles per mesh period."""
+        rows, forces = [], []
+        th = None
+        for T in np.sort(np.asarray(excitation.torque, dtype=float)):
+            th, k, e = excitation.sampled(float(T), n)
+            rows.append(e)
+            forces.append(float(T) / rb2)
+        f0 = forces[0]
+        th0, k0, e0 = excitation.sampled(float(np.min(excitation.torque)), n)
+        kin = e0 - f0 / k0
+        e = np.vstack([kin, *rows])
+        # the static TE grows with the load; round-off of nearly equal rows must not reverse it
+        gap = 1e-12 * max(float(np.ptp(e)), 1e-9)
+        for j in range(1, e.shape[0]):
+            e[j] = np.maximum(e[j], e[j - 1] + gap)
+        return cls(th, e, np.array([0.0, *forces]))
+
+    @property
+    def n_torques(self) -> int:
+        return self.f.size - 1
+
+    def tangent(self, force: float) -> np.ndarray:
+        """Tangent stiffness dF/d(delta) [N/m] at each angle, at the static state under ``force`` [N]
+        (a knot: the slope of the chord over its two neighbours; between knots: the segment's)."""
+        f, e = self.f, self.e
+        m = self.n_torques
+        j = int(np.searchsorted(f, force, side="left"))
+        if j <= m and math.isclose(f[min(j, m)], force, rel_tol=1e-9, abs_tol=1e-12) and 0 < j < m:
+            return (f[j + 1] - f[j - 1]) / (e[j + 1] - e[j - 1])
+        s = min(max(j - 1, 0), m - 1)  # segment containing the force (the last one beyond the map)
+        return (f[s + 1] - f[s]) / (e[s + 1] - e[s])
+
+    def static_te(self, force: float) -> np.ndarray:
+        """Deflection at each angle under the static ``force`` [N] (the map's inverse) [m]."""
+        f, e = self.f, self.e
+        s = int(np.clip(np.searchsorted(f, force) - 1, 0, self.n_torques - 1))
+        return e[s] + (force - f[s]) * (e[s + 1] - e[s]) / (f[s + 1] - f[s])
+
+    def force(self, knots: np.ndarray, delta: np.ndarray, scale: np.ndarray | float = 1.0) -> np.ndarray:
+        """Elastic force [N] at deflections ``delta`` (N,) given the knot deflections ``knots`` (N, m + 1)
+        of each sample; 0 below the separation point; forces times ``scale`` (mesh stiffness modulation)."""
+        m = self.n_torques
+        s = np.clip((knots <= delta[:, None]).sum(axis=1) - 1, 0, m - 1)
+        rows = np.arange(delta.size)
+        e0, e1 = knots[rows, s], knots[rows, s + 1]
+        f0, f1 = self.f[s], self.f[s + 1]
+        out = f0 + (delta - e0) * (f1 - f0) / (e1 - e0)
+        return np.where(delta > knots[:, 0], out, 0.0) * scale
+
+
 @dataclass
 class MeshLaw:
     """Evaluates ``k`` and ``e`` (with effects) at given drive-sense angles; fast scalar path for the solver."""
@@ -161,6 +238,11 @@ class MeshLaw:
     e_grid: np.ndarray
     f_nom: float
     effects: Effects = field(default_factory=Effects)
+    force_map: ForceMap | None = None  # load-dependent law (tables with a torque map), else the secant law
+
+    @property
+    def load_dependent(self) -> bool:
+        return self.force_map is not None and self.force_map.n_torques > 1
 
     def __post_init__(self) -> None:
         self.z1 = self.pair.z[0]
@@ -219,23 +301,43 @@ class MeshLaw:
         ph = np.mod(th1, period)
         k = np.interp(ph, xp, self.kl)
         e = np.interp(ph, xp, self.el)
+        mod, add = self.effect_terms(th1, th2)
+        return k * (1.0 + mod), e - mod * (e - self.e_mean) + add
+
+    def effect_terms(self, th1: np.ndarray, th2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(mod, add)`` of the effects at the angles: the relative mesh stiffness modulation of runout
+        (its fluctuating TE shrinks by ``1 - mod``) and the additive kinematic error [m]."""
         eff = self.effects
         mod = np.zeros_like(th1)
+        add = np.zeros_like(th1)
         ths = (th1, th2)
         for r in eff.runout:
             if r.modulation:
                 mod = mod + self.kappa * r.eccentricity * np.cos(ths[r.gear] + r.phase)
-        e = e - mod * (e - self.e_mean)
-        k = k * (1.0 + mod)
-        for r in eff.runout:
-            e = e + r.eccentricity * np.sin(ths[r.gear] + r.phase)
+            add = add + r.eccentricity * np.sin(ths[r.gear] + r.phase)
         for gear, curve, sc in self.pitch:
             n = len(curve) - 1
             x = np.mod(ths[gear] * sc, n)
-            e = e + np.interp(x, np.arange(n + 1), curve)
+            add = add + np.interp(x, np.arange(n + 1), curve)
         for ex in eff.extra:
-            e = e + _call_vectorised(ex.fn, th1, th2)
-        return k, e
+            add = add + _call_vectorised(ex.fn, th1, th2)
+        return mod, add
+
+    def knots_array(self, th1: np.ndarray, th2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Knot deflections (N, m + 1) [m] of the load-dependent law at the angles, effects included
+        (the additive error shifts every knot; runout modulation shrinks each knot row's fluctuation
+        and scales the forces), and the force scale (N,)."""
+        fm = self.force_map
+        th1, th2 = np.asarray(th1, dtype=float), np.asarray(th2, dtype=float)
+        period = 2 * math.pi / self.z1
+        xp = np.append(fm.theta, period)
+        ph = np.mod(th1, period)
+        mod, add = self.effect_terms(th1, th2)
+        knots = np.empty((th1.size, fm.f.size))
+        for j, row in enumerate(fm.e):
+            v = np.interp(ph, xp, np.append(row, row[0]))
+            knots[:, j] = v - mod * (v - row.mean()) + add
+        return knots, 1.0 + mod
 
     def ripple(self, th2: float) -> float:
         """Brake torque ripple [N m] at output angle ``th2``."""

@@ -111,7 +111,7 @@ def modal_analysis(model: Drivetrain, rpm_in: float = 0.0, torque_out: float | N
     if fmax is not None:
         keep = freqs <= fmax
         lam, vec, freqs = lam[keep], vec[:, keep], freqs[keep]
-    k = model.excitation.mean_stiffness(torque)
+    k = model.mesh_stiffness(torque)
     strain = np.real(np.einsum("im,ij,jm->m", vec.conj(), K, vec))
     share = k * np.abs(model.w @ vec) ** 2 / np.maximum(strain, 1e-300)
     if not damping:

@@ -22,11 +22,14 @@ from gearrom.rom.mesh import line_of_action
 
 @dataclass(frozen=True)
 class MeshSpec:
-    """Mesh element parameters: gear stations, damping ratio, backlash (transverse LOA) [m]."""
+    """Mesh element parameters: gear stations, damping ratio, backlash (transverse LOA) [m], and
+    whether the mesh force follows the table's force-deflection map over its torques
+    (``load_dependent``; a one-torque table always gives the secant law)."""
 
     gear_stations: tuple[str, str]
     damping_ratio: float = 0.05
     backlash: float = 50e-6
+    load_dependent: bool = True
 
 
 @dataclass(eq=False)
@@ -74,6 +77,7 @@ class Drivetrain:
     max_step: float = 1e-5
     metadata: dict = field(default_factory=dict)
     min_mesh_share: float = 0.0
+    _memo: dict = field(default_factory=dict, init=False, repr=False)
 
     def __post_init__(self) -> None:
         names = [s.name for s in self.stations]
@@ -166,9 +170,26 @@ class Drivetrain:
         rb1, rb2 = self.pair.rb
         return 1.0 / (rb1**2 / J[0] + rb2**2 / J[1])
 
+    def force_map(self, n: int = 512):
+        """:class:`~gearrom.rom.mesh.ForceMap` of the excitation table (``n`` angles per mesh period)."""
+        from gearrom.rom.mesh import ForceMap
+
+        key = ("force_map", n)
+        if key not in self._memo:
+            self._memo[key] = ForceMap.from_table(self.excitation, self.pair.rb[1], n)
+        return self._memo[key]
+
+    def mesh_stiffness(self, torque: float) -> float:
+        """Mean mesh stiffness of the linear models at output ``torque`` [N/m]: the tangent of the
+        force-deflection map at the static loaded state when the table has a torque map and the law
+        is load-dependent, else the table's secant stiffness."""
+        if self.mesh.load_dependent and self.excitation.n_torque > 1:
+            return float(np.mean(self.force_map().tangent(self.nominal_force(torque))))
+        return self.excitation.mean_stiffness(torque)
+
     def mesh_damping(self, torque: float) -> float:
-        """Mesh damping ``c = 2 zeta sqrt(k_mean m_eq)`` [N s/m]."""
-        return 2 * self.mesh.damping_ratio * math.sqrt(self.excitation.mean_stiffness(torque) * self.mesh_mass())
+        """Mesh damping ``c = 2 zeta sqrt(k_mean m_eq)`` [N s/m] (``k_mean``: :meth:`mesh_stiffness`)."""
+        return 2 * self.mesh.damping_ratio * math.sqrt(self.mesh_stiffness(torque) * self.mesh_mass())
 
     def nominal_force(self, torque_out: float) -> float:
         """Transverse line-of-action force ``T_out / rb2`` [N]."""
@@ -191,7 +212,7 @@ class Drivetrain:
     def linear(self, rpm_in: float, torque_out: float, k_mesh: float | None = None):
         """``(M, K, D)`` linearised at the mean mesh stiffness (or ``k_mesh``), gyroscopic terms at ``rpm_in``."""
         M, K, D, G = self.structure
-        k = self.excitation.mean_stiffness(torque_out) if k_mesh is None else k_mesh
+        k = self.mesh_stiffness(torque_out) if k_mesh is None else k_mesh
         c = self.mesh_damping(torque_out)
         ww = np.outer(self.w, self.w)
         omega = rpm_in * 2 * math.pi / 60

@@ -36,7 +36,7 @@ def build_exudyn(model: Drivetrain, torque_out: float | None = None):
     idx = np.r_[model.offset[g1]:model.offset[g1] + model.station[g1].ndof,
                 model.offset[g2]:model.offset[g2] + model.station[g2].ndof]
     w = model.w[idx]
-    k = model.excitation.mean_stiffness(torque)
+    k = model.mesh_stiffness(torque)
     c = model.mesh_damping(torque)
     mbs.AddObject(ObjectGenericODE2(nodeNumbers=[nodes[g1], nodes[g2]], massMatrix=np.zeros((len(w), len(w))),
                                     stiffnessMatrix=k * np.outer(w, w), dampingMatrix=c * np.outer(w, w)))

@@ -63,7 +63,7 @@ def reduce(model: Drivetrain, rpm_in: float, torque_out: float, cutoff: float | 
     cutoff = model.cutoff_frequency if cutoff is None else cutoff
     min_share = model.min_mesh_share if min_share is None else min_share
     M, Ks, Ds, G = model.structure
-    kbar = model.excitation.mean_stiffness(torque_out)
+    kbar = model.mesh_stiffness(torque_out)
     w = model.w
     lam, phi = sla.eigh(Ks + kbar * np.outer(w, w), M)
     lam = np.maximum(lam, 0.0)

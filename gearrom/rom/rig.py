@@ -40,7 +40,7 @@ DEFAULTS: dict[str, dict[str, Any]] = {
 }
 ROM_DEFAULTS = {"mesh_damping_ratio": 0.05, "shaft_damping_beta_us": 2.0, "backlash_um": 50.0,
                 "cutoff_frequency_kHz": 12.0, "min_mesh_energy_share": 1e-6, "max_step_us": 10.0,
-                "excitation": "analytical",
+                "excitation": "analytical", "mesh_law": "load-dependent",
                 "excitation_torques_Nm": [], "n_theta": 256}
 
 
@@ -251,8 +251,10 @@ def build_rig(config: GearConfig | str | Path, torque_out: float | None = None,
     comps.append(Load("brake", _num(lo, "inertia_kg_m2", "rig.load", src)))
     torque = cfg.operating.torque_out if torque_out is None else float(torque_out)
     ex = excitation if excitation is not None else load_excitation(cfg, rom, torque)
+    if rom["mesh_law"] not in ("load-dependent", "secant"):
+        raise ConfigError(f"{src}: rom.mesh_law must be \"load-dependent\" or \"secant\", got {rom['mesh_law']!r}")
     mesh = MeshSpec(("in.gear", "out.gear"), _num(rom, "mesh_damping_ratio", "rom", src, allow_zero=True),
-                    _num(rom, "backlash_um", "rom", src) * 1e-6)
+                    _num(rom, "backlash_um", "rom", src) * 1e-6, rom["mesh_law"] == "load-dependent")
     return Drivetrain(
         name=cfg.name, pair=pair, stations=tuple(stations), components=tuple(comps), mesh=mesh, excitation=ex,
         encoders=tuple(encoders), motor_station="motor", load_station="brake",

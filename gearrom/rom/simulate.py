@@ -50,9 +50,12 @@ def _as_model(config_or_model, torque: float | None) -> Drivetrain:
 
 
 def mesh_law(model: Drivetrain, torque_out: float, effects: Effects | None = None, n: int = 512) -> MeshLaw:
-    """The mesh law of ``model`` at ``torque_out`` [N m], sampled on ``n`` points per mesh period."""
+    """The mesh law of ``model`` at ``torque_out`` [N m], sampled on ``n`` points per mesh period:
+    load-dependent (:class:`~gearrom.rom.mesh.ForceMap` of the table's torque map) when the table
+    has several torques and ``model.mesh.load_dependent``, else the secant law at ``torque_out``."""
     th, k, e = model.excitation.sampled(torque_out, n)
-    return MeshLaw(model.pair, th, k, e, model.nominal_force(torque_out), effects or Effects())
+    fmap = model.force_map(n) if model.mesh.load_dependent and model.excitation.n_torque > 1 else None
+    return MeshLaw(model.pair, th, k, e, model.nominal_force(torque_out), effects or Effects(), fmap)
 
 
 def simulate_run(config_or_model, rpm_in: float, torque_out_Nm: float | None = None, *,
@@ -175,10 +178,16 @@ def simulate_run(config_or_model, rpm_in: float, torque_out_Nm: float | None = N
     def fill(start: int) -> None:
         idx = np.arange(start, min(start + chunk, n_steps + 1))
         tm = ((idx[:, None] + sub[None, :]) * h).ravel()
-        k_arr, e_arr = law.evaluate_array(theta0 + omega * tm, theta0 * z1 / z2 + omega2 * tm)
-        k_avg = k_arr.reshape(-1, 4).mean(axis=1)
-        f0_avg = (k_arr * e_arr - f_nom).reshape(-1, 4).mean(axis=1)
-        cache.update(start=start, k=k_avg.tolist(), up=(f0_avg / k_avg).tolist())
+        th1, th2 = theta0 + omega * tm, theta0 * z1 / z2 + omega2 * tm
+        if law.load_dependent:
+            knots, scale = law.knots_array(th1, th2)
+            cache.update(start=start, knots=knots.reshape(-1, 4, knots.shape[1]).mean(axis=1).tolist(),
+                         scale=scale.reshape(-1, 4).mean(axis=1).tolist())
+        else:
+            k_arr, e_arr = law.evaluate_array(th1, th2)
+            k_avg = k_arr.reshape(-1, 4).mean(axis=1)
+            f0_avg = (k_arr * e_arr - f_nom).reshape(-1, 4).mean(axis=1)
+            cache.update(start=start, k=k_avg.tolist(), up=(f0_avg / k_avg).tolist())
         if load is not None:
             cache["rip"] = [law.ripple(a) for a in theta0 * z1 / z2 + omega2 * (idx + 0.5) * h]
 
@@ -195,8 +204,33 @@ def simulate_run(config_or_model, rpm_in: float, torque_out_Nm: float | None = N
             mbs_.SetLoadParameter(load, "load", cache["rip"][i])
         return True
 
+    fl = law.force_map.f.tolist() if law.load_dependent else []
+    m_seg = len(fl) - 2
+    coords = mbs.systemData.GetODE2Coordinates
+    i_delta = red.i_delta  # the reduced node is the system's first node: its coordinates lead
+
+    def pre_step_load(mbs_, t):
+        # the segment of the force-deflection map that holds the deflection at the start of the step
+        # gives the stop stiffness (tangent) and the stop position (where that segment meets F = 0)
+        n = int(t * inv_h + 0.5) - 1
+        i = n - cache["start"]
+        if i >= chunk or i < 0:
+            fill(n)
+            i = 0
+        row, s = cache["knots"][i], cache["scale"][i]
+        d = coords()[i_delta]
+        j = 0
+        while j < m_seg and d >= row[j + 1]:
+            j += 1
+        k = s * (fl[j + 1] - fl[j]) / (row[j + 1] - row[j])
+        set_par(conn, "limitStopsStiffness", k)
+        set_par(conn, "limitStopsUpper", row[j] - s * fl[j] / k)
+        if load is not None:
+            mbs_.SetLoadParameter(load, "load", cache["rip"][i])
+        return True
+
     fill(0)
-    mbs.SetPreStepUserFunction(pre_step)
+    mbs.SetPreStepUserFunction(pre_step_load if law.load_dependent else pre_step)
     sens = mbs.AddSensor(SensorNode(nodeNumber=node, outputVariableType=exu.OutputVariableType.Coordinates,
                                     storeInternal=True, writeToFile=False))
     sens_v = mbs.AddSensor(SensorMarker(markerNumber=m_delta, outputVariableType=exu.OutputVariableType.Coordinates_t,
@@ -252,8 +286,16 @@ def _postprocess(model, red, law, yy, vv, tt, settle, rpm_in, torque, theta0, me
     # mesh force at the sample instants (exact mesh angles; the solver holds k, e0 at each step's midpoint)
     c = model.mesh_damping(torque)
     ddelta = np.asarray(vv, dtype=float)
-    force = np.where(delta > e0, k * (delta - e0) + c * ddelta,
-                     np.where(delta < lower, k * (delta - lower) + c * ddelta, 0.0))
+    if law.load_dependent:
+        knots, scale = law.knots_array(th1, th2)
+        e0 = knots[:, 0]
+        k = scale * (law.force_map.f[1] / (knots[:, 1] - knots[:, 0]))  # back-flank stop: the first segment
+        elastic = law.force_map.force(knots, delta, scale)
+        force = np.where(delta > e0, elastic + c * ddelta,
+                         np.where(delta < lower, k * (delta - lower) + c * ddelta, 0.0))
+    else:
+        force = np.where(delta > e0, k * (delta - e0) + c * ddelta,
+                         np.where(delta < lower, k * (delta - lower) + c * ddelta, 0.0))
     # 1: drive flanks loaded; 0: separated or the (viscous) contact force turned tensile; -1: back flanks
     state = np.where(delta < lower, -1, np.where(force > 0, 1, 0)).astype(np.int8)
     return DynamicRun(

@@ -149,7 +149,10 @@ def test_deck_errors(pair, tmp_path):
     with pytest.raises(ModelError, match="no single mesh"):
         export_inp(pair, 0.0, TORQUE, tmp_path / "s.inp", helical_model="slices")
     # 2D settings (the CLI's) are ignored as by export_vtu: the default 3D mesh, scaled
-    assert export_inp(pair, 0.0, TORQUE, tmp_path / "s.inp", MeshSettings(), mesh_factor=1.5).settings == DECK_MESH
+    info = export_inp(pair, 0.0, TORQUE, tmp_path / "s.inp", MeshSettings(), mesh_factor=1.5)
+    # 2D settings ignored: the LTCA's mesh x 1.5, with the flanks of every tooth that can touch refined
+    reach = max(abs(p) for p in info.pairs)
+    assert info.settings == Mesh3DSettings(refined_teeth=reach).scaled(1.5) and reach >= 1
     with pytest.raises(ModelError, match="elastic sector"):
         export_inp(pair, 0.0, TORQUE, tmp_path / "s.inp", Mesh3DSettings(teeth=2), mesh_factor=1.5)
 
