@@ -2,9 +2,10 @@
 
 Reference: :func:`gearrom.rom.simulate.simulate_run` at constant speed (an independent time
 integration set up by the ROM package, settled at each speed), sampled at 64 per mesh period like
-the run-up. At a slow ramp (250 rpm/s over 1000-1500 rpm, thesis-spur rig) GMF x1 agrees within 2 %
-(observed: +0.1 % at constant speed, within 1 % on the ramp); the tolerance leaves room for the
-ramp's amplitude change within a one-revolution block.
+the run-up. At a slow ramp (250 rpm/s over 1000-1500 rpm, thesis-spur rig) GMF x1 agrees within 2 %.
+The run-up is expected to lie slightly above: the mesh also carries the torque that accelerates the
+load side (about 1 N m here against 120 N m), observed +0.85 to +0.91 %; at constant speed the two
+estimators differ by 0.1 %.
 """
 import json
 import warnings
@@ -31,6 +32,7 @@ def test_slow_ramp_matches_stepped_runs(spur, tmp_path):
     cmp = compare_with_sweep(res, spur, [1150.0, 1300.0, 1450.0])
     rel = np.array(cmp["rel_diff"])
     assert np.all(np.abs(rel[:, 0]) < 0.02), rel
+    assert np.all(rel[:, 0] > 0), rel  # the acceleration load raises the mesh force
     # below order 60 the order spectrum peaks at the GMF order (z1 = 32) and agrees with the exact-order estimate
     j = len(res.rpm) // 2
     k = int(np.argmin(np.abs(res.orders - 32)))
