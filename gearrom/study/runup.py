@@ -134,6 +134,16 @@ class RunupResult:
         return fig
 
 
+def _as_model(config_or_model, torque: float | None):
+    """A Drivetrain as given, or built from a config / bundled name / path with the public rig builder."""
+    from gearrom.rom.model import Drivetrain
+    from gearrom.rom.rig import build_rig
+
+    if isinstance(config_or_model, Drivetrain):
+        return config_or_model
+    return build_rig(config_or_model, torque_out=torque)
+
+
 def _angle(t: np.ndarray, w0: float, alpha: float, ts: float, t_end: float) -> np.ndarray:
     """Nominal input angle [rad] at times ``t``: constant ``w0`` up to ``ts``, ramp up to ``t_end``, then constant."""
     tr = np.clip(t - ts, 0.0, t_end - ts)
@@ -185,7 +195,7 @@ def simulate_runup(config_or_model, rpm_start: float, rpm_end: float, duration_s
     from gearrom.rom.components import RZ
     from gearrom.rom.mesh import Effects
     from gearrom.rom.reduce import periodic_initial_state, reduce
-    from gearrom.rom.simulate import _as_model, mesh_law
+    from gearrom.rom.simulate import mesh_law
 
     if not (0 < rpm_start < rpm_end and math.isfinite(rpm_end)):
         raise ConfigError(f"run-up speeds need 0 < start < end, got {rpm_start!r} -> {rpm_end!r} rpm")
@@ -341,7 +351,7 @@ def compare_with_sweep(result: RunupResult, config_or_model, rpms, torque_out_Nm
     dict
         ``rpm``, ``sweep_gmf_um`` (n, 3), ``runup_gmf_um`` (n, 3) and ``rel_diff`` (n, 3): run-up / sweep - 1.
     """
-    from gearrom.rom.simulate import _as_model, simulate_run
+    from gearrom.rom.simulate import simulate_run
 
     model = _as_model(config_or_model, torque_out_Nm)
     rpms = np.asarray(rpms, float)
