@@ -219,7 +219,6 @@ def run_tolerance_study(config_ref: str | Path, spec: ToleranceSpec, n_samples: 
         ``on_result(client, n_done)`` after each finished sample.
     """
     from gearrom.config import load_config
-    from gearrom.rom.sweep import _key_hash
     from gearrom.study.distributed import cluster_client, run_tasks
     from gearrom.study.result import ToleranceResult
 
@@ -232,7 +231,7 @@ def run_tolerance_study(config_ref: str | Path, spec: ToleranceSpec, n_samples: 
     out = Path(out_dir)
     (out / "samples").mkdir(parents=True, exist_ok=True)
     key = study_key(ref, settings)
-    key_hash = _key_hash(key)
+    key_hash = hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()
     tasks, done = [], {}
     for i in range(n_samples):
         dev = sample_deviations(spec, cfg.pair.z, i, seed)
