@@ -145,25 +145,20 @@ class FEMicroModel:
                                        self.helical_model]).encode()).hexdigest()[:24]
         if key in _MEMORY:
             return _MEMORY[key]
-        from gearrom.fe.cache import FECache, atomic_path
+        from gearrom.fe.cache import FECache, cached
 
-        d = self._dir()
-        cache, name = (FECache(d) if d else None), f"micro-{key}.nc"
-        ex = cache.fetch(name, MeshExcitation.load) if cache is not None else None  # damaged: reported, recomputed
-        if ex is None:
+        def compute() -> MeshExcitation:
             from gearrom.fe.sweep import mesh_cycle
 
-            new = pair_with(pair, mods)
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                lt = _rebuild(ltca, new)
-                ex = mesh_cycle(lt, tq, n_positions=self.n_positions, tangent=False).to_excitation()
-            if cache is not None:
-                def save(path: Path) -> None:
-                    with atomic_path(path) as tmp:
-                        ex.save(tmp)
+                lt = _rebuild(ltca, pair_with(pair, mods))
+                return mesh_cycle(lt, tq, n_positions=self.n_positions, tangent=False).to_excitation()
 
-                cache.store(name, save)  # an unwritable directory: one warning, the result is kept
+        d = self._dir()
+        # a damaged entry is reported and recomputed; an unwritable folder: one warning, the table is kept
+        ex = cached(FECache(d) if d else None, f"micro-{key}.nc", MeshExcitation.load, compute, MeshExcitation.save,
+                    atomic=True)
         _MEMORY[key] = ex
         return ex
 

@@ -20,7 +20,6 @@ import logging
 from collections.abc import Sequence
 from pathlib import Path
 
-import numpy as np
 
 from gearrom.excitation.table import MeshExcitation
 
@@ -90,7 +89,7 @@ def fe_excitation(pair, torques: Sequence[float], n_positions: int = 64, setting
         Secant stiffness and static TE over (torque, theta); ``metadata`` holds ``source``
         (``"fe"``), ``cache_key``, ``torques_Nm`` and ``n_positions``.
     """
-    from gearrom.fe.cache import FECache, atomic_path
+    from gearrom.fe.cache import FECache, cached
     from gearrom.fe.sweep import build_ltca, default_cache_dir, mesh_cycle
 
     tq = sorted({float(t) for t in torques})
@@ -100,23 +99,14 @@ def fe_excitation(pair, torques: Sequence[float], n_positions: int = 64, setting
         raise ModelError(f"fe_excitation: torques must be positive N m, got {list(torques)}")
     key = table_key(pair, tq, n_positions, settings, helical_model)
     folder = (default_cache_dir() if cache_dir is True else Path(cache_dir) if cache_dir else None)
-    cache = FECache(folder / "tables") if folder is not None else None
-    name = f"table-{key}.nc"
-    ex = cache.fetch(name, MeshExcitation.load) if cache is not None else None
-    if ex is not None:
-        log.info("FE excitation table %s from the cache", key)
-        return ex
-    log.info("computing the FE excitation table (%d positions x %d torques) of %s", n_positions, len(tq),
-             config_name or "the pair")
-    ltca = build_ltca(pair, settings, cache_dir if cache_dir is not None else None, helical_model=helical_model)
-    meta = {"config": config_name, "config_digest": config_digest, "source": "fe", "cache_key": key,
-            "torques_Nm": tq, "n_positions": int(n_positions)}
-    res = mesh_cycle(ltca, tq, n_positions, metadata=meta, progress=progress)
-    ex = res.to_excitation()
-    if cache is not None:
-        def save(path: Path) -> None:
-            with atomic_path(path) as tmp:
-                ex.save(tmp)
 
-        cache.store(name, save)
-    return ex
+    def compute() -> MeshExcitation:
+        log.info("computing the FE excitation table (%d positions x %d torques) of %s", n_positions, len(tq),
+                 config_name or "the pair")
+        ltca = build_ltca(pair, settings, cache_dir if cache_dir is not None else None, helical_model=helical_model)
+        meta = {"config": config_name, "config_digest": config_digest, "source": "fe", "cache_key": key,
+                "torques_Nm": tq, "n_positions": int(n_positions)}
+        return mesh_cycle(ltca, tq, n_positions, metadata=meta, progress=progress).to_excitation()
+
+    return cached(FECache(folder / "tables") if folder is not None else None, f"table-{key}.nc", MeshExcitation.load,
+                  compute, MeshExcitation.save, atomic=True)

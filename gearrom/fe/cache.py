@@ -313,6 +313,31 @@ class FECache:
         return _one_line(exc)
 
 
+def cached(cache: FECache | None, name: str, load: Callable[[Path], T], compute: Callable[[], T],
+           save: Callable[[T, Path], object], atomic: bool = False) -> T:
+    """The entry ``name`` of ``cache`` (read by ``load``), else ``compute()`` stored by ``save(obj, path)``.
+
+    ``cache`` None: ``compute()`` alone. ``atomic``: ``save`` writes any file and is wrapped in
+    :func:`atomic_path` (writers that are not atomic themselves, such as NetCDF); without it
+    ``save`` must write atomically (:func:`write_arrays`).
+    """
+    if cache is None:
+        return compute()
+    obj = cache.fetch(name, load)
+    if obj is None:
+        obj = compute()
+
+        def store(path: Path) -> None:
+            if atomic:
+                with atomic_path(path) as tmp:
+                    save(obj, tmp)
+            else:
+                save(obj, path)
+
+        cache.store(name, store)
+    return obj
+
+
 def as_cache(cache_dir: str | Path | FECache | None) -> FECache | None:
     """``cache_dir`` as an :class:`FECache` (None, False or an empty string: no cache)."""
     if cache_dir is None or cache_dir is False or cache_dir == "":

@@ -28,7 +28,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from gearrom.errors import MeshError
-from gearrom.fe.cache import FECache, as_cache, cache_key, read_arrays, write_arrays
+from gearrom.fe.cache import FECache, as_cache, cache_key, cached, read_arrays, write_arrays
 from gearrom.fe.elastic import ElasticBody2D, locate_on_chain
 from gearrom.fe.mesh2d import MeshSettings, gear_mesh
 
@@ -271,12 +271,5 @@ def cached_compliance(pair, i: int, settings: MeshSettings | None = None, spacin
     """
     s = settings or MeshSettings()
     spacing = spacing or s.flank_size
-    cache = as_cache(cache_dir)
-    if cache is None:
-        return compute_compliance(pair, i, s, spacing, offsets)
-    name = f"flank2d-{gear_key(pair, i, s, spacing, offsets)}.npz"
-    fc = cache.fetch(name, FlankCompliance.load)
-    if fc is None:
-        fc = compute_compliance(pair, i, s, spacing, offsets)
-        cache.store(name, fc.save)
-    return fc
+    return cached(as_cache(cache_dir), f"flank2d-{gear_key(pair, i, s, spacing, offsets)}.npz", FlankCompliance.load,
+                  lambda: compute_compliance(pair, i, s, spacing, offsets), FlankCompliance.save)

@@ -34,7 +34,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from gearrom.errors import MeshError
-from gearrom.fe.cache import FECache, as_cache, cache_key, read_arrays, write_arrays
+from gearrom.fe.cache import FECache, as_cache, cache_key, cached, read_arrays, write_arrays
 from gearrom.fe.elastic3d import ElasticBody3D
 from gearrom.fe.halfspace import point_depth_kernel
 from gearrom.fe.mesh3d import Mesh3DSettings, sector_mesh
@@ -288,12 +288,5 @@ def cached_compliance3d(pair, i: int, settings: Mesh3DSettings | None = None,
         Options of :func:`compute_compliance3d`.
     """
     s = settings or Mesh3DSettings()
-    cache = as_cache(cache_dir)
-    if cache is None:
-        return compute_compliance3d(pair, i, s, **kw)
-    name = f"flank3d-{gear_key3d(pair, i, s, **kw)}.npz"
-    fc = cache.fetch(name, FlankCompliance3D.load)
-    if fc is None:
-        fc = compute_compliance3d(pair, i, s, **kw)
-        cache.store(name, fc.save)
-    return fc
+    return cached(as_cache(cache_dir), f"flank3d-{gear_key3d(pair, i, s, **kw)}.npz", FlankCompliance3D.load,
+                  lambda: compute_compliance3d(pair, i, s, **kw), FlankCompliance3D.save)

@@ -191,6 +191,22 @@ def simulate_run(config_or_model, rpm_in: float, torque_out_Nm: float | None = N
         if load is not None:
             cache["rip"] = [law.ripple(a) for a in theta0 * z1 / z2 + omega2 * (idx + 0.5) * h]
 
+    fl = law.force_map.f.tolist() if law.load_dependent else []
+    m_seg = len(fl) - 2
+    coords = mbs.systemData.GetODE2Coordinates
+    i_delta = red.i_delta  # the reduced node is the system's first node: its coordinates lead
+
+    def segment(i: int) -> tuple[float, float]:
+        # the segment of the force-deflection map that holds the deflection at the start of the step
+        # gives the stop stiffness (tangent) and the stop position (where that segment meets F = 0)
+        row, s = cache["knots"][i], cache["scale"][i]
+        d = coords()[i_delta]
+        j = 0
+        while j < m_seg and d >= row[j + 1]:
+            j += 1
+        k = s * (fl[j + 1] - fl[j]) / (row[j + 1] - row[j])
+        return k, row[j] - s * fl[j] / k
+
     def pre_step(mbs_, t):
         # exudyn passes the END time t_n + h of the coming step: the step index is n = t/h - 1
         n = int(t * inv_h + 0.5) - 1
@@ -198,39 +214,15 @@ def simulate_run(config_or_model, rpm_in: float, torque_out_Nm: float | None = N
         if i >= chunk or i < 0:
             fill(n)
             i = 0
-        set_par(conn, "limitStopsStiffness", cache["k"][i])
-        set_par(conn, "limitStopsUpper", cache["up"][i])
-        if load is not None:
-            mbs_.SetLoadParameter(load, "load", cache["rip"][i])
-        return True
-
-    fl = law.force_map.f.tolist() if law.load_dependent else []
-    m_seg = len(fl) - 2
-    coords = mbs.systemData.GetODE2Coordinates
-    i_delta = red.i_delta  # the reduced node is the system's first node: its coordinates lead
-
-    def pre_step_load(mbs_, t):
-        # the segment of the force-deflection map that holds the deflection at the start of the step
-        # gives the stop stiffness (tangent) and the stop position (where that segment meets F = 0)
-        n = int(t * inv_h + 0.5) - 1
-        i = n - cache["start"]
-        if i >= chunk or i < 0:
-            fill(n)
-            i = 0
-        row, s = cache["knots"][i], cache["scale"][i]
-        d = coords()[i_delta]
-        j = 0
-        while j < m_seg and d >= row[j + 1]:
-            j += 1
-        k = s * (fl[j + 1] - fl[j]) / (row[j + 1] - row[j])
+        k, up = segment(i) if law.load_dependent else (cache["k"][i], cache["up"][i])
         set_par(conn, "limitStopsStiffness", k)
-        set_par(conn, "limitStopsUpper", row[j] - s * fl[j] / k)
+        set_par(conn, "limitStopsUpper", up)
         if load is not None:
             mbs_.SetLoadParameter(load, "load", cache["rip"][i])
         return True
 
     fill(0)
-    mbs.SetPreStepUserFunction(pre_step_load if law.load_dependent else pre_step)
+    mbs.SetPreStepUserFunction(pre_step)
     sens = mbs.AddSensor(SensorNode(nodeNumber=node, outputVariableType=exu.OutputVariableType.Coordinates,
                                     storeInternal=True, writeToFile=False))
     sens_v = mbs.AddSensor(SensorMarker(markerNumber=m_delta, outputVariableType=exu.OutputVariableType.Coordinates_t,

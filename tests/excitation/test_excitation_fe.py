@@ -15,27 +15,17 @@ import pytest
 
 from gearrom.config import load_config
 from gearrom.excitation.fe import fe_excitation, torque_map
-from gearrom.fe.mesh2d import MeshSettings
 
-MESH = MeshSettings(flank_size=0.12e-3, tooth_size=1.35e-3, body_size=9e-3)  # coarse: ~0.5 s per gear
-CONFIG = """extends = "thesis-spur"
-name = "spur-rig-fe"
-[rom]
-excitation = "fe"
-[fe]
-flank_size_mm = 0.12
-tooth_size_mm = 1.35
-body_size_mm = 9.0
-positions = 32
-"""
 
 
 @pytest.fixture(scope="module")
-def rig_config(tmp_path_factory):
-    d = tmp_path_factory.mktemp("fe_rig")
-    path = d / "spur-rig-fe.toml"
-    path.write_text(CONFIG)
-    return path
+def rig_config(spur_fe_rig_config):
+    return spur_fe_rig_config
+
+
+@pytest.fixture(scope="module")
+def MESH(spur_fe_mesh):  # noqa: N802 (the mesh constant of the FE tests)
+    return spur_fe_mesh
 
 
 def test_torque_map_brackets_the_operating_torque():
@@ -43,7 +33,7 @@ def test_torque_map_brackets_the_operating_torque():
     assert tq[0] == pytest.approx(30.0) and tq[-1] == pytest.approx(240.0) and 120.0 in tq
 
 
-def test_table_is_cached_by_content(tmp_path, monkeypatch):
+def test_table_is_cached_by_content(tmp_path, monkeypatch, MESH):
     pair = load_config("thesis-spur").pair
     first = fe_excitation(pair, [60.0, 120.0], 8, MESH, cache_dir=tmp_path)
     assert first.metadata["source"] == "fe" and len(list((tmp_path / "tables").glob("table-*.nc"))) == 1
@@ -60,7 +50,7 @@ def test_table_is_cached_by_content(tmp_path, monkeypatch):
         fe_excitation(pair, [60.0, 120.0, 240.0], 8, MESH, cache_dir=tmp_path)
 
 
-def test_damaged_table_is_recomputed(tmp_path, caplog):
+def test_damaged_table_is_recomputed(tmp_path, caplog, MESH):
     pair = load_config("thesis-spur").pair
     first = fe_excitation(pair, [120.0], 8, MESH, cache_dir=tmp_path)
     (entry,) = (tmp_path / "tables").glob("table-*.nc")
@@ -71,7 +61,7 @@ def test_damaged_table_is_recomputed(tmp_path, caplog):
     np.testing.assert_allclose(again.e, first.e, rtol=1e-12)
 
 
-def test_rom_crawl_deflection_matches_the_ltca_static_te(rig_config):
+def test_rom_crawl_deflection_matches_the_ltca_static_te(rig_config, MESH):
     """0.5x, 1x, 2x the operating torque and 100 N m (between map points 90 and 120)."""
     from gearrom.fe.sweep import build_ltca
     from gearrom.rom.rig import build_rig

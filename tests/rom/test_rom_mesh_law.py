@@ -13,19 +13,7 @@ import pytest
 import scipy.linalg
 
 from gearrom.excitation.table import MeshExcitation
-from gearrom.fe.mesh2d import MeshSettings
 
-MESH = MeshSettings(flank_size=0.12e-3, tooth_size=1.35e-3, body_size=9e-3)  # coarse: ~0.5 s per gear
-CONFIG = """extends = "thesis-spur"
-name = "spur-rig-fe"
-[rom]
-excitation = "fe"
-[fe]
-flank_size_mm = 0.12
-tooth_size_mm = 1.35
-body_size_mm = 9.0
-positions = 32
-"""
 
 
 def _hertz_like_table(rb2: float) -> MeshExcitation:
@@ -68,20 +56,18 @@ def test_force_map_reproduces_the_law_at_its_knots():
 
 
 @pytest.fixture(scope="module")
-def fe_rig(tmp_path_factory):
+def fe_rig(spur_fe_rig_config):
     from gearrom.rom.rig import build_rig
 
-    path = tmp_path_factory.mktemp("mesh_law") / "spur-rig-fe.toml"
-    path.write_text(CONFIG)
-    return build_rig(path)
+    return build_rig(spur_fe_rig_config)
 
 
 @pytest.fixture(scope="module")
-def fe_tangent(fe_rig):
+def fe_tangent(fe_rig, spur_fe_mesh):
     """The LTCA's own mean tangent stiffness [N/m] at 60, 120 and 240 N m."""
     from gearrom.fe.sweep import build_ltca, mesh_cycle
 
-    res = mesh_cycle(build_ltca(fe_rig.pair, MESH), [60.0, 120.0, 240.0], 32)
+    res = mesh_cycle(build_ltca(fe_rig.pair, spur_fe_mesh), [60.0, 120.0, 240.0], 32)
     return {float(T): float(res.k_tangent[j].mean()) for j, T in enumerate(res.torque)}
 
 
