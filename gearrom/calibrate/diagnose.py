@@ -28,7 +28,7 @@ from gearrom.calibrate.residual import fit_lines, load_run, rms
 from gearrom.calibrate.select import select_effects, verify
 from gearrom.calibrate.simulator import default_simulator
 from gearrom.errors import CalibrationError
-from gearrom.signal import GearMeshInfo, ReadSettings
+from gearrom.signal import GearMeshInfo, ReadSettings, TESettings
 
 log = logging.getLogger(__name__)
 UM = 1e-6
@@ -38,7 +38,7 @@ UNEXPLAINED_NOISE = 3.0  # ... and 3 x the broadband noise rms (lines at noise l
 
 def diagnose(config: str | Path, measurements: Sequence[str | Path], *, simulator=None,
              settings: FitSettings | None = None, read_settings: ReadSettings | None = None,
-             torque_out_Nm: float | None = None, micro_model=None) -> DiagnosisResult:
+             te_settings: TESettings | None = None, torque_out_Nm: float | None = None, micro_model=None) -> DiagnosisResult:
     """Diagnose which library effects the nominal model misses, from one or more measured runs.
 
     Parameters
@@ -52,6 +52,10 @@ def diagnose(config: str | Path, measurements: Sequence[str | Path], *, simulato
         hooks, else the torsional rig model).
     settings : FitSettings, optional
     read_settings : ReadSettings, optional
+        Reader and edge checks (default: the config's ``[signal]`` section).
+    te_settings : TESettings, optional
+        Speed-ratio tolerance and encoder-scale estimate (default: the config's ``[signal]``
+        section); filters and ``te_on`` are not applied (see :func:`~gearrom.calibrate.residual.load_run`).
     torque_out_Nm : float, optional
         Load for files that do not state it.
     micro_model : MicroGeometryModel, optional
@@ -74,7 +78,13 @@ def diagnose(config: str | Path, measurements: Sequence[str | Path], *, simulato
     settings = settings or FitSettings()
     pair = load_config(config, check=False).pair
     mesh = GearMeshInfo.from_config(config)
-    runs = [load_run(p, mesh, torque_out_Nm, read_settings) for p in measurements]
+    if read_settings is None or te_settings is None:
+        from gearrom.signal.config import settings_from_config
+
+        te_cfg, read_cfg = settings_from_config(config)
+        read_settings = read_settings or read_cfg
+        te_settings = te_settings or te_cfg
+    runs = [load_run(p, mesh, torque_out_Nm, read_settings, te_settings) for p in measurements]
     sim = simulator or default_simulator(config)
     models = [build_run_model(sim, r) for r in runs]
     micro_model = micro_model or getattr(sim, "micro_model", None) or FEMicroModel()

@@ -21,6 +21,7 @@ model's own GMF lines only.
 """
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 from dataclasses import dataclass, field
@@ -35,6 +36,7 @@ from scipy.optimize import minimize_scalar
 from gearrom.calibrate.simulator import SimHistory
 from gearrom.errors import CalibrationError
 from gearrom.signal import GearMeshInfo, ReadSettings, TESettings, process_measurement
+from gearrom.signal.filters import FilterSettings
 
 log = logging.getLogger(__name__)
 
@@ -104,7 +106,7 @@ def working_factor(fs_hz: float, gmf_hz: float) -> int:
 
 
 def load_run(path: str | Path, mesh: GearMeshInfo, torque_out_Nm: float | None = None,
-             read_settings: ReadSettings | None = None) -> RunData:
+             read_settings: ReadSettings | None = None, te_settings: TESettings | None = None) -> RunData:
     """Read a measurement into a :class:`RunData` (signal pipeline, then working grid).
 
     Parameters
@@ -115,13 +117,18 @@ def load_run(path: str | Path, mesh: GearMeshInfo, torque_out_Nm: float | None =
     torque_out_Nm : float, optional
         Load torque when the file does not state ``torque_out_Nm``.
     read_settings : ReadSettings, optional
+    te_settings : TESettings, optional
+        The config's ``[signal]`` TE settings. Their speed-ratio check (``ratio_tolerance``) and
+        encoder-scale estimate (``estimate_scale``) apply; the TE is always taken on the line of
+        action with the default detrend and no other filter (:func:`diagnosis_te_settings`), since
+        the simulated signals go through exactly this processing.
 
     Raises
     ------
     CalibrationError
         No load torque known, or the record is shorter than one output revolution.
     """
-    res = process_measurement(path, mesh, read_settings=read_settings, te_settings=TESettings())
+    res = process_measurement(path, mesh, read_settings=read_settings, te_settings=diagnosis_te_settings(te_settings))
     torque = res.torque_out_Nm if res.torque_out_Nm is not None else torque_out_Nm
     if torque is None:
         raise CalibrationError(f"{path}: 'torque_out_Nm' is missing in the measurement and was not given "
@@ -143,6 +150,18 @@ def load_run(path: str | Path, mesh: GearMeshInfo, torque_out_Nm: float | None =
         raise CalibrationError(f"{path}: the record holds {run.revs_out:.2f} output revolutions; the diagnosis "
                                "needs at least 1 (2 recommended)")
     return run
+
+
+def diagnosis_te_settings(te_settings: TESettings | None) -> TESettings:
+    """The TE settings a run is read with: ``te_settings`` without filters and on the line of action.
+
+    The ratio check, its tolerance and the encoder-scale estimate are kept. A low-pass, high-pass or
+    a pitch-circle TE of the ``[signal]`` section is not applied: the model is compared on the line
+    of action through :func:`comparison_lowpass` and the detrend, identically on both sides, and a
+    filter on the measured side only would show up as a model error.
+    """
+    te = te_settings or TESettings()
+    return dataclasses.replace(te, te_on="line", filters=FilterSettings())
 
 
 LOWPASS_FRAC = 0.38  # comparison band edge, x the working rate (8th-order Butterworth, zero phase)

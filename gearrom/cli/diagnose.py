@@ -39,7 +39,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                         help="read data files outside their measurement JSON's folder (refused by default)")
     from gearrom.cli.te import add_read_args
 
-    add_read_args(parser, scale=False)
+    add_read_args(parser)
 
 
 #: Largest ``--max-effects`` accepted (the library has fewer effects; a larger count changes nothing).
@@ -102,7 +102,7 @@ def run(args: argparse.Namespace) -> int:
 
     names = check_args(args)
     # the reader follows the config's [signal] section (edge checks, window, trimming), options override it
-    _, read_settings = settings_from_config(args.config, {"rpm_tolerance": args.rpm_tolerance, **read_overrides(args)},
+    te_settings, read_settings = settings_from_config(args.config, {"rpm_tolerance": args.rpm_tolerance, **read_overrides(args)},
                                             OPTION_KEYS)
     read_settings = dataclasses.replace(read_settings, allow_outside_data=args.allow_outside_data)
     settings = FitSettings(max_effects=args.max_effects, candidates=names, shared_shaft_phase=args.shared_phase and not args.per_run_phase)
@@ -114,7 +114,7 @@ def run(args: argparse.Namespace) -> int:
         micro = SliceMicroModel()
         sim.micro_model = micro  # the re-simulations use the same micro-geometry model as the fits
     res = diagnose(args.config, args.measurements, simulator=sim, settings=settings, micro_model=micro,
-                   read_settings=read_settings, torque_out_Nm=args.torque_out_Nm)
+                   read_settings=read_settings, te_settings=te_settings, torque_out_Nm=args.torque_out_Nm)
     if args.json_out == "-":
         sys.stdout.write(res.to_json())
     elif args.json_out:
