@@ -49,6 +49,20 @@ def _pair_key(pair) -> dict:
     return plain(pair)
 
 
+def flank_pair(pair):
+    """``pair`` without runout and pitch deviations: the table covers one mesh period of the flank
+    geometry (tip relief, crowning, slopes); the ROM adds runout and pitch deviations as kinematic
+    effects over the revolutions (:class:`gearrom.rom.mesh.Effects`), which a table of one mesh
+    period cannot hold and which would otherwise count twice."""
+    gears = []
+    for g in pair.gears:
+        m = g.micro
+        if m.enabled and (m.pitch_deviations or m.runout):
+            m = dataclasses.replace(m, pitch_deviations=(), runout=0.0, runout_phase=0.0)
+        gears.append(dataclasses.replace(g, micro=m))
+    return dataclasses.replace(pair, gears=tuple(gears))
+
+
 def table_key(pair, torques: Sequence[float], n_positions: int, settings=None, helical_model: str = "3d") -> str:
     """Content key of a table: pair, torques, positions, mesh settings, model, gearrom version."""
     from gearrom.fe.cache import cache_key
@@ -66,7 +80,8 @@ def fe_excitation(pair, torques: Sequence[float], n_positions: int = 64, setting
     Parameters
     ----------
     pair : GearPair
-        The gear pair (its enabled micro-geometry is part of the contact solves).
+        The gear pair (its enabled flank micro-geometry is part of the contact solves; runout and
+        pitch deviations are not, :func:`flank_pair`).
     torques : sequence of float
         Output torques of the table [N m] (see :func:`torque_map`).
     n_positions : int
@@ -92,6 +107,7 @@ def fe_excitation(pair, torques: Sequence[float], n_positions: int = 64, setting
     from gearrom.fe.cache import FECache, cached
     from gearrom.fe.sweep import build_ltca, default_cache_dir, mesh_cycle
 
+    pair = flank_pair(pair)
     tq = sorted({float(t) for t in torques})
     if not tq or not all(t > 0 for t in tq):
         from gearrom.errors import ModelError
