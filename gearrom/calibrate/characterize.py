@@ -19,7 +19,7 @@ import math
 import numpy as np
 from scipy import signal
 
-from gearrom.calibrate.residual import RunData, fit_lines
+from gearrom.calibrate.residual import RunData, coinciding_lines, fit_lines
 
 UM = 1e-6
 
@@ -44,13 +44,23 @@ def line_order(run: RunData, a: float, b: float) -> float:
 
 
 def order_table(run: RunData, before: np.ndarray, after: np.ndarray) -> list[dict]:
-    """Before/after amplitudes (um) of the standard lines in the TE residuals of one run."""
+    """Before/after amplitudes (um) of the standard lines in the TE residuals of one run.
+
+    Standard lines that are the same line (an integer ratio: order 1 of the input and order 2 of the
+    output of a 15/30 pair) are fitted once and reported once, under all their names (``names``,
+    ``label`` joins them with ``" = "``).
+    """
     lab = standard_lines(run)
     lines = np.array([[a, b] for _, a, b in lab])
-    cb = fit_lines(before, run.theta_in_rad, run.theta_out_rad, lines)
-    ca = fit_lines(after, run.theta_in_rad, run.theta_out_rad, lines)
-    return [{"label": name, "order": line_order(run, a, b), "order_out": line_order(run, a, b) / run.mesh.ratio,
-             "before_um": abs(x) / UM, "after_um": abs(y) / UM} for (name, a, b), x, y in zip(lab, cb, ca)]
+    keep, inv = coinciding_lines(run.theta_in_rad, run.theta_out_rad, lines)
+    lab_u = [lab[k] for k in keep]
+    names = [[name for (name, _, _), j in zip(lab, inv) if j == u] for u in range(len(keep))]
+    lines_u = lines[keep]
+    cb = fit_lines(before, run.theta_in_rad, run.theta_out_rad, lines_u)
+    ca = fit_lines(after, run.theta_in_rad, run.theta_out_rad, lines_u)
+    return [{"label": " = ".join(nm), "names": nm, "order": line_order(run, a, b),
+             "order_out": line_order(run, a, b) / run.mesh.ratio, "before_um": abs(x) / UM, "after_um": abs(y) / UM}
+            for (_, a, b), nm, x, y in zip(lab_u, names, cb, ca)]
 
 
 def sideband_modulation(run: RunData, te: np.ndarray, noise_line_m: float) -> list[dict]:
@@ -93,16 +103,22 @@ def spectral_peaks(x: np.ndarray, fs_hz: float, noise_rms_m: float, snr: float =
 
 
 def nearest_integer_order(run: RunData, f_hz: float, tol_orders: float) -> str | None:
-    """Label of an integer order of either shaft (or a GMF harmonic) within ``tol_orders``, else None."""
+    """Label of an integer order of either shaft (or a GMF harmonic) within ``tol_orders``, else None.
+
+    An order of both shafts (integer ratio) is named for both, joined by ``" = "``."""
     f_in = run.rpm_in / 60
     o_in = f_hz / f_in
     o_out = o_in / run.mesh.ratio
+    names = []
     if abs(o_in - round(o_in)) <= tol_orders and round(o_in) >= 1:
         q = int(round(o_in))
-        return f"{q // run.mesh.z1}xGMF" if q % run.mesh.z1 == 0 else f"input order {q}"
-    if abs(o_out - round(o_out)) <= tol_orders / run.mesh.ratio and round(o_out) >= 1:
-        return f"output order {int(round(o_out))}"
-    return None
+        names.append(f"{q // run.mesh.z1}xGMF" if q % run.mesh.z1 == 0 else f"input order {q}")
+    # a GMF harmonic is always an output order too (named as GMF); otherwise, with an integer ratio, an
+    # order of both shafts gets both names ("input order 1 = output order 2" for z2 = 2 z1)
+    if abs(o_out - round(o_out)) <= tol_orders / run.mesh.ratio and round(o_out) >= 1 \
+            and not (names and "GMF" in names[0]):
+        names.append(f"output order {int(round(o_out))}")
+    return " = ".join(names) or None
 
 
 def classify_peaks(runs: list[RunData], peaks: list[list[tuple[float, float]]]) -> list[dict]:
@@ -174,7 +190,7 @@ def dependence(runs: list[RunData], tables: list[list[dict]], labels=("1x f_in",
     """Amplitude of key residual lines against speed and load across runs."""
     out = []
     for lab in labels:
-        vals = [(r.rpm_in, r.torque_out_Nm, next(x["before_um"] for x in t if x["label"] == lab))
+        vals = [(r.rpm_in, r.torque_out_Nm, next(x["before_um"] for x in t if lab in x["names"]))
                 for r, t in zip(runs, tables)]
         a = [v[2] for v in vals]
         trend = "constant"

@@ -117,6 +117,15 @@ def _line_amp(x: np.ndarray, run, shaft: str, order: int = 1) -> float:
     return float(abs(fit_lines(x, run.theta_in_rad, run.theta_out_rad, np.array(line))[0]))
 
 
+def _same_line(mesh, shaft: str) -> str:
+    """`` (= order k of the <other> shaft, the same line)`` when order 1 of ``shaft`` is an integer order of
+    the other shaft (integer ratio), else ``""``: the line carries both names."""
+    a, b = (mesh.z1, mesh.z2) if shaft == "input" else (mesh.z2, mesh.z1)
+    if b % a:
+        return ""
+    return f" (= order {b // a} of the {'output' if shaft == 'input' else 'input'} shaft, the same line)"
+
+
 def _evidence(ctx: Context, t: Trial, D: list) -> str:
     share = t.info.get("explained_share", 0.0)
     ru = t.info.get("runner_up")
@@ -131,7 +140,8 @@ def _evidence(ctx: Context, t: Trial, D: list) -> str:
         te = _line_amp(d[0], m.run, shaft) / UM
         oth_meas = _line_amp(d[other], m.run, shaft) / UM
         oth_pred = _line_amp(c[other], m.run, shaft) / UM
-        txt += (f"; order 1 of the {shaft} shaft: {te:.3g} um in the TE; the other channel "
+        same = _same_line(m.run.mesh, shaft)
+        txt += (f"; order 1 of the {shaft} shaft{same}: {te:.3g} um in the TE; the other channel "
                 f"({'output' if other == 2 else 'input'}) moves {oth_meas:.3g} um at that order (this effect "
                 f"predicts {oth_pred:.3g} um; "
                 + ("real shaft motion: a mesh excitation, not a measurement error)" if name == "eccentricity"
@@ -187,7 +197,7 @@ def _assemble(ctx: Context, config, sim, D, accepted, steps, after) -> Diagnosis
                           "torque_out_Nm": r.torque_out_Nm, "revs_out": r.revs_out, "duration_s": r.duration_s,
                           "error_before_rms_um": rms(rb) / UM, "error_after_rms_um": rms(ra) / UM,
                           "noise_rms_um": m.noise_m / UM, "mesh_phase_deg": _wrap_deg(m.psi, r.mesh.z1),
-                          "mesh_phase_estimated": m.psi_identifiable, "repairs": len(r.repairs), "orders": tab})
+                          "mesh_phase_estimated": m.psi_identifiable, "repairs": len(r.repairs), "orders": tab, **r.info})
         traces.append(RunTraces(r.name, r.rpm_in, r.t_s, r.theta_in_rad, r.y[0], m.nominal[0], mod_after[0], r.fs_hz))
     before = rms(np.concatenate(res_b)) / UM
     after_rms = rms(np.concatenate(res_a)) / UM
@@ -225,12 +235,12 @@ def _assemble(ctx: Context, config, sim, D, accepted, steps, after) -> Diagnosis
     peaks = [chz.spectral_peaks(ra, m.run.fs_hz, m.noise_m, floor_m=fl) for ra, m, fl in zip(res_a, models, floors)]
     unexplained = chz.classify_peaks([m.run for m in models], peaks)
     for u in unexplained:  # a leftover at the lines of a fitted effect is a misfit of it, not a new effect
-        lab = u.get("integer_order") or ""
+        labs = (u.get("integer_order") or "").split(" = ")  # an integer ratio names a line for both shafts
         for t in accepted:
-            n = t.cand.name
-            if (("GMF" in lab and n in ("tip_relief", "lead_crowning", "helix_slope", "torsional_mode"))
-                    or (lab.endswith("order 1") and n in ("eccentricity", "encoder_eccentricity"))
-                    or (n == "pitch_error" and lab.startswith(t.cand.target.split("_")[0]))):
+            n, shaft = t.cand.name, t.cand.target.split("_")[0]
+            if any(("GMF" in lab and n in ("tip_relief", "lead_crowning", "helix_slope", "torsional_mode"))
+                   or (lab == f"{shaft} order 1" and n in ("eccentricity", "encoder_eccentricity"))
+                   or (n == "pitch_error" and lab.startswith(shaft)) for lab in labs):
                 u["at_lines_of"] = n
     peaks_b = [chz.spectral_peaks(rb, m.run.fs_hz, m.noise_m) for rb, m in zip(res_b, models)]
     noise_line = [m.noise_m * math.sqrt(2 / m.run.t_s.size) for m in models]

@@ -64,6 +64,10 @@ class DiagnosisResult:
                          f"{r['revs_out']:.2f} output revs: rms {r['error_before_rms_um']:.3g} -> "
                          f"{r['error_after_rms_um']:.3g} um; mesh phase {r['mesh_phase_deg']:.2f} deg "
                          f"({'estimated from the nominal GMF lines' if r['mesh_phase_estimated'] else 'not identifiable'})")
+            if r.get("steady_window_s"):
+                lo, hi = r["speed_range_rpm"]
+                lines.append(f"    not a steady run ({lo:.4g}..{hi:.4g} rpm): compared on its steady part "
+                             f"t={r['steady_window_s'][0]:.4g}..{r['steady_window_s'][1]:.4g} s")
         lines.append("")
         if not s["effects"]:
             lines.append("Effects added: none (the residual is not explained significantly by any library effect).")

@@ -37,6 +37,7 @@ from gearrom.calibrate.simulator import SimHistory
 from gearrom.errors import CalibrationError
 from gearrom.signal import GearMeshInfo, ReadSettings, TESettings, process_measurement
 from gearrom.signal.filters import FilterSettings
+from gearrom.signal.runup import steadiness
 
 log = logging.getLogger(__name__)
 
@@ -134,18 +135,34 @@ def load_run(path: str | Path, mesh: GearMeshInfo, torque_out_Nm: float | None =
         raise CalibrationError(f"{path}: 'torque_out_Nm' is missing in the measurement and was not given "
                                "(--torque-out-Nm)")
     q = working_factor(res.fs_hz, res.gmf_hz)
-    th1, th2 = res.theta_in_rad, res.theta_out_rad
+    th1, th2, te, t = res.theta_in_rad, res.theta_out_rad, res.te_m, res.t_s
+    info = {}
+    st = steadiness(t, th1)
+    if not st["steady"]:
+        # the model is a steady run, and a channel's fluctuation about uniform rotation holds the whole
+        # speed change of a start-up or stop: only the steady part is compared
+        t0, t1 = st["steady_window_s"]
+        keep = (t >= t0) & (t <= t1)
+        th1, th2, te, t = th1[keep], th2[keep], te[keep], t[keep]
+        th1, th2 = th1 - th1[:1], th2 - th2[:1]  # angles from the window's first sample, as from a first edge
+        info["steady_window_s"] = [float(t0), float(t1)]
+        info["speed_range_rpm"] = [st["rpm_min"], st["rpm_max"]]
+        if t.size < 64 or (th2[-1] - th2[0]) < 2 * math.pi:
+            raise CalibrationError(
+                f"{path}: not a steady run (input speed {st['rpm_min']:.4g}..{st['rpm_max']:.4g} rpm) and its steady "
+                f"part t={t0:.4g}..{t1:.4g} s holds {(th2[-1] - th2[0]) / (2 * math.pi) if t.size else 0:.2f} output "
+                "revolutions; the diagnosis compares steady runs and needs at least 1")
     u1 = mesh.rb1_m * signal.detrend(th1)
     u2 = mesh.rb2_m * signal.detrend(th2)
-    y = np.vstack([_decimate(v, q) for v in (res.te_m, u1, u2)])
+    y = np.vstack([_decimate(v, q) for v in (te, u1, u2)])
     n = y.shape[1]
-    th1d, th2d, td = th1[::q][:n], th2[::q][:n], res.t_s[::q][:n]
+    th1d, th2d, td = th1[::q][:n], th2[::q][:n], t[::q][:n]
     cut = slice(EDGE_TRIM, n - EDGE_TRIM)  # the decimation filter's start/end transients
     y, th1d, th2d, td = y[:, cut], th1d[cut], th2d[cut], td[cut]
     y = detrend(comparison_lowpass(y, res.fs_hz / q))
     run = RunData(name=str(path), rpm_in=float(res.rpm_in), rpm_in_nominal=float(res.rpm_in_nominal),
                   torque_out_Nm=float(torque), t_s=td - td[0], theta_in_rad=th1d, theta_out_rad=th2d, y=y,
-                  fs_hz=res.fs_hz / q, mesh=mesh, repairs=tuple(res.repairs))
+                  fs_hz=res.fs_hz / q, mesh=mesh, repairs=tuple(res.repairs), info=info)
     if run.revs_out < 1.0:
         raise CalibrationError(f"{path}: the record holds {run.revs_out:.2f} output revolutions; the diagnosis "
                                "needs at least 1 (2 recommended)")
@@ -232,17 +249,52 @@ def fit_lines(y: np.ndarray, theta_in: np.ndarray, theta_out: np.ndarray, lines,
 
     ``y`` may be 1-D or (k, n) (k signals at once; the result is then (k, n_lines)). With ``trend``
     an offset and a slope (in input angle) are fitted along as nuisance terms: every compared signal
-    went through a linear detrend, which is not orthogonal to the lines over a short record.
+    went through a linear detrend, which is not orthogonal to the lines over a short record. Lines that
+    are the same line (:func:`coinciding_lines`, e.g. order 1 of the input and order 2 of the output of a
+    15/30 pair) are fitted as one; each of them gets that line's amplitude.
     """
-    A = line_design(theta_in, theta_out, lines)
+    lines = np.atleast_2d(np.asarray(lines, float))
+    keep, inv = coinciding_lines(theta_in, theta_out, lines)
+    A = line_design(theta_in, theta_out, lines[keep])
     L = A.shape[1] // 2
     if trend:
         u = (theta_in - theta_in.mean()) / max(np.ptp(theta_in), 1e-12)
         A = np.hstack([A, np.ones((A.shape[0], 1)), u[:, None]])
     Y = np.atleast_2d(y).T
     x = _solve_ls(A, Y)
-    c = (x[:L] + 1j * x[L:2 * L]).T
+    c = (x[:L] + 1j * x[L:2 * L]).T[:, inv]
     return c[0] if np.ndim(y) == 1 else c
+
+
+#: Two lines whose phases drift apart by less than this over the record are one line, rad.
+COINCIDE_RAD = 0.05
+
+
+def coinciding_lines(theta_in: np.ndarray, theta_out: np.ndarray, lines) -> tuple[np.ndarray, np.ndarray]:
+    """Indices of the distinct lines among ``lines`` and, for each line, the index of its distinct line.
+
+    With an integer or small-integer speed ratio two named lines can be the same line (z2 = 2 z1: order
+    1 of the input and order 2 of the output). Their design columns then differ only by the TE in the
+    angles, and a joint fit would give two huge amplitudes that cancel. Lines whose phases
+    ``a theta_in + b theta_out`` drift apart by less than :data:`COINCIDE_RAD` over the record (with the
+    measured speed ratio) are taken as one; far below one cycle, so lines that the record resolves are
+    never merged.
+    """
+    lines = np.atleast_2d(np.asarray(lines, float))
+    span_in = float(theta_in[-1] - theta_in[0]) if theta_in.size else 0.0
+    ratio = float(theta_out[-1] - theta_out[0]) / span_in if span_in else 0.0
+    order = lines[:, 0] + lines[:, 1] * ratio
+    keep: list[int] = []
+    inv = np.empty(len(lines), dtype=np.int64)
+    for i, o in enumerate(order):
+        for j, k in enumerate(keep):
+            if abs(o - order[k]) * abs(span_in) < COINCIDE_RAD:
+                inv[i] = j
+                break
+        else:
+            inv[i] = len(keep)
+            keep.append(i)
+    return np.asarray(keep, dtype=np.int64), inv
 
 
 def _solve_ls(A: np.ndarray, Y: np.ndarray) -> np.ndarray:
