@@ -27,7 +27,8 @@ T_SKIP = 0.5  # s of the steady simulation dropped (start transient of the rig m
 
 def write_stage_run(path_json: Path, injected: Injected | None = None, *, rig: TorsionalRig | None = None,
                     rpm: float = RPM, duration_s: float = 5.0, t_steady_s: float = 2.0, seed: int = 1,
-                    daq: DAQSettings | None = None, data_format: str = "mat") -> Path:
+                    daq: DAQSettings | None = None, data_format: str = "mat",
+                    out_ratio: float = 1.0) -> Path:
     """Write one emulated sampled recording of the stage; returns the measurement JSON."""
     rig = rig or TorsionalRig.from_config(CONFIG)
     inj = injected or Injected()
@@ -41,7 +42,7 @@ def write_stage_run(path_json: Path, injected: Injected | None = None, *, rig: T
     phi_sim = w * (h.t_s[keep] - T_SKIP)
     th1 = np.interp(phi, phi_sim, h.theta_in_rad[keep] - h.theta_in_rad[keep][0])
     th2 = np.interp(phi, phi_sim, h.theta_out_rad[keep] - h.theta_out_rad[keep][0])
-    rec = emulate_quadrature(t, th1, th2, lines=1000, rng=seed,
+    rec = emulate_quadrature(t, th1, th2, lines=1000, rng=seed, ratio=(1.0, out_ratio),
                              daq=daq or DAQSettings(sample_rate_hz=50e3, noise_V=0.05, phase_error_rad=0.1,
                                                     jitter_s=1e-7))
     return write_quadrature(path_json, rec, rpm_in=rpm, data_format=data_format, config=CONFIG,
