@@ -81,6 +81,16 @@ def sweep_settings(cfg, args) -> dict:
     return out
 
 
+def _describe(exc: dict) -> str:
+    """One line on the excitation a sweep ran on (source, torques, FE cache key)."""
+    src = exc.get("source", "?")
+    text = {"fe": "quasi-static FE tables", "analytical": "ISO 6336-1 shaped analytical table"}.get(src, f"table {src}")
+    tq = exc.get("torques_Nm") or []
+    if tq:
+        text += f" at {', '.join(f'{t:g}' for t in tq)} N m"
+    return text + (f" (FE cache key {exc['cache_key']})" if exc.get("cache_key") else "")
+
+
 def _check_repeats(rpms: np.ndarray, st: dict, cfg: GearConfig, args: argparse.Namespace) -> None:
     """Reject a speed given twice, naming where the speeds came from (``--rpm`` or ``sweep.rpm``)."""
     from gearrom.rom.sweep import repeated_speeds
@@ -125,6 +135,7 @@ def run(args: argparse.Namespace) -> int:
     worst = max(res.summary, key=lambda s: s["dte_ptp_um"])
     sys.stdout.write(
         f"sweep {cfg.name}: {len(rpms)} speeds {rpms[0]:.0f}-{rpms[-1]:.0f} rpm in {wall:.1f} s wall\n"
+        f"  excitation: {_describe(res.metadata.get('excitation', {}))}\n"
         f"  largest DTE (sensor side) {worst['dte_ptp_um']:.3f} um p-p at {worst['rpm_in']:.0f} rpm; "
         f"contact loss at {n_loss} speed(s)\n"
         f"  written: {args.out}/summary.json, sweep.nc, waterfall.png, gmf_vs_speed.png, speeds/\n")

@@ -66,10 +66,12 @@ def flank_pair(pair):
 def table_key(pair, torques: Sequence[float], n_positions: int, settings=None, helical_model: str = "3d") -> str:
     """Content key of a table: pair, torques, positions, mesh settings, model, gearrom version."""
     from gearrom.fe.cache import cache_key
+    from gearrom.fe.mesh3d import Mesh3DSettings
 
+    model = helical_model if pair.is_helical else "2d"
+    mesh = repr(Mesh3DSettings()) if model == "3d" else repr(settings)  # the mesh the LTCA is built on
     return cache_key(TABLE_REVISION, {"pair": _pair_key(pair), "torques_Nm": [repr(float(t)) for t in torques],
-                                      "n_positions": int(n_positions), "settings": repr(settings),
-                                      "helical_model": helical_model if pair.is_helical else "2d"})
+                                      "n_positions": int(n_positions), "mesh": mesh, "helical_model": model})
 
 
 def fe_excitation(pair, torques: Sequence[float], n_positions: int = 64, settings=None, *,
