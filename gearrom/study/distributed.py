@@ -21,6 +21,8 @@ log = logging.getLogger(__name__)
 CONNECT_TIMEOUT_S = 10.0
 #: resubmissions of a task that the scheduler reported as killed (its worker died repeatedly)
 MAX_RESUBMIT = 3
+#: memory limit of each embedded worker (restarted by its nanny beyond 95 % of it)
+WORKER_MEMORY = "4GiB"
 
 
 class StudyError(GearromError, RuntimeError):
@@ -49,7 +51,10 @@ def cluster_client(scheduler: str | None = None, n_workers: int = 2) -> Iterator
     from distributed import Client, LocalCluster
 
     if scheduler is None:
-        with LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True, dashboard_address=None) as cl, \
+        # a bounded memory per worker: the nanny restarts a worker that outgrows it (the ROM's
+        # constant-speed run leaves about 1 MB per run behind in the process) and its task reruns
+        with LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True, dashboard_address=None,
+                          memory_limit=WORKER_MEMORY) as cl, \
                 Client(cl) as client:
             yield client
         return
