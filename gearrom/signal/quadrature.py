@@ -1,8 +1,8 @@
 """Decoding of sampled quadrature signals (A/B and optional index) into signed encoder edges.
 
-Each sampled channel goes through a Schmitt trigger (threshold and hysteresis, vectorised: the
-logic level is the last sample outside the hysteresis band, carried forward with
-``numpy.maximum.accumulate``). The two logic levels give the quadrature phase
+Each sampled channel goes through a Schmitt trigger (threshold and hysteresis: the logic level is
+that of the last sample outside the hysteresis band; before the first such sample of the record,
+the level of that sample). The two logic levels give the quadrature phase
 ``(A, B) = 00, 10, 11, 01 -> 0, 1, 2, 3``; a phase step of +1 is a forward edge, -1 a backward
 edge and 2 an *illegal transition* (both channels changed within one sample: the edge rate is too
 close to the sample rate, or a glitch). An illegal transition counts two edges in the direction of
@@ -16,6 +16,9 @@ between the two samples around the switch (``edge_time="interpolate"``), or the 
 sample past the switch (``"sample"``). The timing resolution is the sample step either way: the
 interpolation cannot move an edge outside its sample interval.
 
+The decoding is one compiled pass per chunk (:func:`gearrom.signal.qkernel.decode_chunk`); the
+state (levels, phase, position, last sample) carries over, so chunk boundaries change nothing.
+
 :func:`select_run` then picks, per channel, the longest stretch of forward rotation without
 standstill, so that start-ups from rest, coast-downs, jitter at standstill and direction reversals
 are cut instead of stopping the whole record.
@@ -28,39 +31,21 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from gearrom.errors import MeasurementError
-
-_PHASE = np.array([0, 3, 1, 2], np.int8)  # index 2*A + B -> quadrature phase
-
-
-def schmitt(x: np.ndarray, lo: float, hi: float, init: int) -> np.ndarray:
-    """Logic level (0/1) of ``x`` with hysteresis: high above ``hi``, low below ``lo``, else unchanged.
-
-    ``init`` is the level before the first sample (-1: unknown, then the first decided level).
-    """
-    lev = np.full(x.size, -1, np.int8)
-    lev[x > hi] = 1
-    lev[x < lo] = 0
-    idx = np.where(lev >= 0, np.arange(x.size), -1)
-    np.maximum.accumulate(idx, out=idx)
-    out = np.where(idx >= 0, lev[np.maximum(idx, 0)], np.int8(init))
-    if init < 0 and (out < 0).any():
-        known = lev[lev >= 0]
-        out[out < 0] = known[0] if known.size else 0
-    return out.astype(np.int8)
+from gearrom.signal import qkernel as qk
 
 
 @dataclass
 class _Chan:
     lo: float
     hi: float
-    level: int = -1
-    x: float = math.nan
 
 
 def auto_levels(x: np.ndarray, threshold: float | None, hysteresis: float | None, name: str,
                 file: str) -> tuple[float, float]:
     """Switching levels ``(lo, hi)``; threshold/hysteresis None: from the channel's 1st/99th percentile."""
-    p1, p99 = np.percentile(x, [1, 99])
+    if threshold is not None and hysteresis is not None:
+        return float(threshold) - float(hysteresis) / 2, float(threshold) + float(hysteresis) / 2
+    p1, p99 = np.percentile(np.asarray(x, np.float64), [1, 99])
     swing = float(p99 - p1)
     if threshold is None and not swing > 0:
         raise MeasurementError(f"{file}: channel {name!r} does not switch (constant {p1:.6g} in the first chunk); "
@@ -102,121 +87,94 @@ class QuadratureDecoder:
         self.name, self.k, self.thr, self.hyst, self.edge_time, self.file = \
             name, decoding, threshold, hysteresis, edge_time, file
         self.ch: dict[str, _Chan] = {}
-        self.phase: int | None = None
-        self.pos = 0  # x4 position (phase-consistent: pos % 4 == phase)
-        self.last_dir = 1
-        self.t_prev = math.nan
         self.report = DecodeReport()
+        self._si = np.zeros(qk.N_INT, np.int64)
+        self._si[[qk.LA, qk.LB, qk.LZ, qk.PHASE]] = -1
+        self._si[qk.LAST_DIR] = 1
+        self._sf = np.full(qk.N_FLOAT, math.nan)
+        self._levels = np.zeros(6)
         self._steps: list[float] = []
+        self._buf: tuple[np.ndarray, ...] = ()
         self.t: list[np.ndarray] = []
         self.sign: list[np.ndarray] = []
         self.row: list[np.ndarray] = []
 
-    def _levels(self, key: str, x: np.ndarray) -> np.ndarray:
+    @property
+    def pos(self) -> int:
+        """x4 position after the last decoded sample (phase-consistent: ``pos % 4 == phase``)."""
+        return int(self._si[qk.POS])
+
+    def _chan(self, key: str, x: np.ndarray) -> None:
         if key not in self.ch:
             lo, hi = auto_levels(x, self.thr, self.hyst, f"{self.name}.{key}", self.file)
             self.ch[key] = _Chan(lo, hi)
             self.report.levels[key] = (lo, hi)
-        c = self.ch[key]
-        lev = schmitt(x, c.lo, c.hi, c.level)
-        return lev
+            j = 2 * "abz".index(key)
+            self._levels[j:j + 2] = lo, hi
 
-    def _cross_t(self, key: str, x: np.ndarray, t: np.ndarray, i: np.ndarray, rising: np.ndarray) -> np.ndarray:
-        """Time of the switch of channel ``key`` at sample ``i`` (arrays include the previous sample at 0)."""
-        if self.edge_time == "sample":
-            return t[i]
-        c = self.ch[key]
-        lvl = np.where(rising, c.hi, c.lo)
-        x0, x1 = x[i - 1], x[i]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            frac = np.clip((lvl - x0) / (x1 - x0), 0.0, 1.0)
-        frac = np.where(np.isfinite(frac), frac, 1.0)
-        return t[i - 1] + frac * (t[i] - t[i - 1])
+    def _buffers(self, m: int) -> tuple[np.ndarray, ...]:
+        """Output buffers for a chunk of ``m`` samples (at most two edges and one index pulse per sample)."""
+        if not self._buf or self._buf[0].size < 2 * m:
+            self._buf = (np.empty(2 * m), np.empty(2 * m, np.int8), np.empty(2 * m, np.int64), np.empty(m, np.int64))
+        return self._buf
 
-    def feed(self, t: np.ndarray, a: np.ndarray, b: np.ndarray, z: np.ndarray | None, row0: int) -> None:
-        """Decode one chunk of samples (times ``t`` in s; ``row0`` = index of the first sample)."""
-        if t.size == 0:
+    def feed(self, t: np.ndarray | None, a: np.ndarray, b: np.ndarray, z: np.ndarray | None, row0: int,
+             rate_hz: float | None = None) -> None:
+        """Decode one chunk of samples.
+
+        Parameters
+        ----------
+        t : ndarray or None
+            Sample times (s); None: sample ``row0 + j`` is at ``(row0 + j) / rate_hz``.
+        a, b, z : ndarray
+            Samples of A, B and index (``z`` None: no index channel).
+        row0 : int
+            Index of the first sample in the record.
+        rate_hz : float, optional
+            Sample rate (Hz), used when ``t`` is None.
+        """
+        m = a.size
+        if m == 0:
             return
-        if t.size > 1:
+        if t is None:
+            if rate_hz is None:
+                raise MeasurementError(f"{self.file}: {self.name}: no sample times and no sample rate")
+            self._steps.append(1.0 / rate_hz)
+            t = np.empty(0)
+        elif m > 1:
             self._steps.append(float(np.median(np.diff(t))))
-        la, lb = self._levels("a", a), self._levels("b", b)
-        first = self.phase is None
-        ph = _PHASE[2 * la + lb]
-        # prepend the previous sample so that a switch at the chunk start is seen and interpolated
-        if first:
-            self.phase = int(ph[0])
-            self.pos = self.phase
-            tp, ap, bp, php = t, a, b, ph
-            rows = row0 + np.arange(t.size)
-        else:
-            tp = np.concatenate([[self.t_prev], t])
-            ap = np.concatenate([[self.ch["a"].x], a])
-            bp = np.concatenate([[self.ch["b"].x], b])
-            php = np.concatenate([[np.int8(self.phase)], ph])
-            la = np.concatenate([[np.int8(self.ch["a"].level)], la])
-            lb = np.concatenate([[np.int8(self.ch["b"].level)], lb])
-            rows = row0 - 1 + np.arange(tp.size)
-        step = (np.diff(php.astype(np.int16)) % 4).astype(np.int8)
-        i = np.flatnonzero(step) + 1  # sample index (in the prepended arrays) of each switch
-        st = step[i - 1]
-        sgn = np.where(st == 1, 1, np.where(st == 3, -1, 0)).astype(np.int8)
-        illegal = sgn == 0
-        if illegal.any():  # direction of the last legal step, carried forward
-            idx = np.where(~illegal, np.arange(sgn.size), -1)
-            np.maximum.accumulate(idx, out=idx)
-            sgn = np.where(idx >= 0, sgn[np.maximum(idx, 0)], np.int8(self.last_dir)).astype(np.int8)
-            if self.report.illegal_first_t is None:
-                self.report.illegal_first_t = float(tp[i[illegal][0]])
-            self.report.illegal += int(illegal.sum())
-        if sgn.size:
-            self.last_dir = int(sgn[-1])
-        da = la[i] != la[i - 1]
-        db = lb[i] != lb[i - 1]
-        ta = self._cross_t("a", ap, tp, i, la[i] == 1)
-        tb = self._cross_t("b", bp, tp, i, lb[i] == 1)
-        # one edge per switching channel: a legal step switches one channel, an illegal one both
-        t_e = np.concatenate([ta[da], tb[db]])
-        s_e = np.concatenate([sgn[da], sgn[db]])
-        r_e = np.concatenate([rows[i[da]], rows[i[db]]])
-        is_a = np.concatenate([np.ones(int(da.sum()), bool), np.zeros(int(db.sum()), bool)])
-        order = np.lexsort((t_e, r_e))
-        t_e, s_e, r_e, is_a = t_e[order], s_e[order], r_e[order], is_a[order]
-        pos = self.pos + np.cumsum(s_e, dtype=np.int64)
-        if self.k == 4:
-            keep = np.ones(t_e.size, bool)
-        else:  # x2: edges of A; x1: A rising forward / A falling backward (same physical edge)
-            off = 1 if self.k == 2 else 3
-            before = pos - s_e
-            div = 4 // self.k  # x4 steps per counted edge
-            keep = is_a & (np.floor_divide(pos + off, div) != np.floor_divide(before + off, div))
+        self._chan("a", a)
+        self._chan("b", b)
+        cols = [a, b] + ([z] if z is not None else [])
+        if len({c.dtype for c in cols}) > 1 or cols[0].dtype.kind not in "fiu":
+            cols = [np.asarray(c, np.float64) for c in cols]
+        a, b = np.ascontiguousarray(cols[0]), np.ascontiguousarray(cols[1])
         if z is not None:
-            self._index(z, t, pos, t_e)
-        if pos.size:
-            self.pos = int(pos[-1])
-        self.t.append(t_e[keep])
-        self.sign.append(s_e[keep])
-        self.row.append(r_e[keep])
-        self.phase = int(ph[-1])
-        self.t_prev = float(t[-1])
-        self.ch["a"].level, self.ch["b"].level = int(la[-1]), int(lb[-1])
-        self.ch["a"].x, self.ch["b"].x = float(a[-1]), float(b[-1])
-
-    def _index(self, z: np.ndarray, t: np.ndarray, pos: np.ndarray, t_e: np.ndarray) -> None:
-        lz = self._levels("z", z)
-        c = self.ch["z"]
-        prev = np.concatenate([[np.int8(c.level if c.level >= 0 else lz[0])], lz[:-1]])
-        rise = np.flatnonzero((lz == 1) & (prev == 0))
-        if rise.size:
-            j = np.searchsorted(t_e, t[rise], side="right") - 1
-            p = np.where(j >= 0, pos[np.maximum(j, 0)], self.pos)
-            self.report.index_positions.extend(int(v) for v in p)
-        c.level = int(lz[-1])
+            self._chan("z", z)
+            z = np.ascontiguousarray(cols[2])
+        else:
+            z = a[:0]
+        ot, os_, orow, oz = self._buffers(m)
+        n, nz = qk.decode_chunk(a, b, z, np.ascontiguousarray(t, np.float64), int(row0),
+                                float(rate_hz or 0.0), self._levels, int(self.k), self.edge_time == "interpolate",
+                                self._si, self._sf, ot, os_, orow, oz)
+        self.t.append(ot[:n].copy())
+        self.sign.append(os_[:n].copy())
+        self.row.append(orow[:n].copy())
+        if nz:
+            self.report.index_positions.extend(oz[:nz].tolist())
+        self.report.illegal = int(self._si[qk.ILLEGAL])
+        if self._si[qk.HAS_ILLEGAL]:
+            self.report.illegal_first_t = float(self._sf[qk.ILLEGAL_T])
 
     def result(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """All edges so far: times (s), signs (+1/-1), sample indices."""
         self.report.sample_step_s = float(np.median(self._steps)) if self._steps else math.nan
-        cat = (lambda lst, dt: np.concatenate(lst) if lst else np.empty(0, dt))
-        return cat(self.t, np.float64), cat(self.sign, np.int8), cat(self.row, np.int64)
+        self._buf = ()
+        cat = (lambda lst, dt: np.concatenate(lst) if len(lst) > 1 else (lst[0] if lst else np.empty(0, dt)))
+        out = cat(self.t, np.float64), cat(self.sign, np.int8), cat(self.row, np.int64)
+        self.t, self.sign, self.row = [out[0]], [out[1]], [out[2]]
+        return out
 
 
 @dataclass(frozen=True)
