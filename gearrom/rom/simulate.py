@@ -244,6 +244,10 @@ def simulate_run(config_or_model, rpm_in: float, torque_out_Nm: float | None = N
     sel = (raw[:, 0] >= settle - 0.5 / fs) & (raw[:, 0] < t_end - 0.5 / fs)
     tt, yy = raw[sel, 0], raw[sel, 1:]
     vv = mbs.GetSensorStoredData(sens_v)[sel, 1]
+    # the pre-step closure holds the system and the system holds the closure: a cycle through C++
+    # objects that Python's collector cannot see; clearing the container frees the run's memory
+    mbs.SetPreStepUserFunction(0)
+    SC.Reset()
     return _postprocess(model, red, law, yy, vv, tt, settle, rpm_in, torque, theta0, {
         "config": model.metadata.get("config", model.name), "config_digest": model.metadata.get("config_digest", ""),
         "z1": z1, "z2": z2, "step_s": h, "n_steps": n_steps, "modes_kept": int(red.freqs.size),
