@@ -53,7 +53,8 @@ def decode(meta: MeasurementMeta, settings: ReadSettings) -> dict[str, tuple]:
         for ch in CHANNELS:
             e = meta.encoders[ch]
             zname = e.z or f"{ch}_z"
-            decs[ch].feed(chunk.t, chunk.cols[e.a], chunk.cols[e.b], chunk.cols.get(zname), chunk.row0)
+            decs[ch].feed(chunk.t, chunk.cols[e.a], chunk.cols[e.b], chunk.cols.get(zname), chunk.row0,
+                          rate_hz=chunk.rate_hz)
     return {ch: (*d.result(), d) for ch, d in decs.items()}
 
 
@@ -85,8 +86,9 @@ def load_quadrature(meta: MeasurementMeta, settings: ReadSettings):
     sel = {}
     for ch in CHANNELS:
         t, sign, rows, d = dec[ch]
-        w = (t >= lo) & (t < hi)
-        t, sign, rows = t[w], sign[w], rows[w]
+        if lo > -np.inf or hi < np.inf:
+            w = (t >= lo) & (t < hi)
+            t, sign, rows = t[w], sign[w], rows[w]
         if t.size < 4 * period + 4:
             raise MeasurementError(f"{file}: channel {ch!r}: {t.size} edges decoded in the time window; check the "
                                    "channel names, threshold and hysteresis (quadrature.threshold/hysteresis)")

@@ -32,21 +32,38 @@ from gearrom.signal.readers import HIDDEN, first_bad
 
 @dataclass(frozen=True)
 class SampleChunk:
-    """Consecutive samples: index of the first one, times (s) and the named columns."""
+    """Consecutive samples: index of the first one, times (s) and the named columns.
+
+    ``t`` is None when the file has no time column: sample ``row0 + j`` is then at
+    ``(row0 + j) / rate_hz`` (see :meth:`times`), and no time array is built.
+    """
 
     row0: int
-    t: np.ndarray
+    t: np.ndarray | None
     cols: dict[str, np.ndarray]
+    rate_hz: float | None = None
+
+    def times(self) -> np.ndarray:
+        """Sample times (s)."""
+        if self.t is not None:
+            return self.t
+        m = len(next(iter(self.cols.values())))
+        return (self.row0 + np.arange(m)) / self.rate_hz
 
 
 class _Table:
-    """Named columns of one length, each read as ``read(name, start, stop)`` -> float64 array."""
+    """Named columns of one length, each read as ``read(name, start, stop)`` -> numeric array.
+
+    The stored type is kept (an int16 DAQ record stays int16: a quarter of the memory of float64
+    and no conversion pass); booleans become uint8.
+    """
 
     def __init__(self, n: int, names: list[str], read: Callable[[str, int, int], np.ndarray], close=None):
         self.n, self.names, self._read, self.close = n, names, read, close or (lambda: None)
 
     def read(self, name: str, a: int, b: int) -> np.ndarray:
-        return np.asarray(self._read(name, a, b), dtype=np.float64).ravel()
+        arr = np.asarray(self._read(name, a, b)).ravel()
+        return arr.view(np.uint8) if arr.dtype == np.bool_ else arr
 
 
 def _numeric(arr, path: Path, name: str) -> np.ndarray:
@@ -241,19 +258,23 @@ def iter_samples(meta: MeasurementMeta, needed: list[str], optional: list[str], 
 
     def finish(row0: int, t: np.ndarray | None, cols: dict[str, np.ndarray]) -> SampleChunk:
         nonlocal t_last
-        m = len(next(iter(cols.values())))
-        if t is None:
-            t = (row0 + np.arange(m)) / rate
-        for k, v in [("time", t), *cols.items()]:
+        # integer samples are finite by construction; times from the rate increase by construction
+        checked = ([("time", t)] if t is not None else []) + [(k, v) for k, v in cols.items() if v.dtype.kind == "f"]
+        for k, v in checked:
             i = first_bad(v)
             if i is not None:
                 raise MeasurementError(f"{path}: {label} {row0 + i + first_row}, channel {k!r}: not a finite number")
-        dt = np.diff(np.concatenate([[t_last], t]))
-        bad = np.flatnonzero(dt <= 0)
-        if bad.size:
-            i = int(bad[0])
+        if t is None:
+            return SampleChunk(row0, None, cols, rate)
+        if t.size and not t[0] > t_last:
+            i = 0
+        else:
+            bad = np.flatnonzero(t[1:] <= t[:-1])
+            i = int(bad[0]) + 1 if bad.size else -1
+        if i >= 0:
             raise MeasurementError(f"{path}: {label} {row0 + i + first_row}: time {t[i]:.9g} s does not increase")
-        t_last = float(t[-1])
+        if t.size:
+            t_last = float(t[-1])
         return SampleChunk(row0, t, cols)
 
     if tab is None:
