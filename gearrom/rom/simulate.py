@@ -5,13 +5,11 @@ The exudyn system holds (see :mod:`gearrom.rom.reduce`)
 * one ``NodeGenericODE2`` with the reduced coordinates ``y`` and one ``ObjectGenericODE2`` with the
   constant reduced mass, stiffness, damping (+ gyroscopic at the run's speed) and the constant loads
   (motor feed-forward, brake torque);
-* the mesh: ``ObjectConnectorCoordinateSpringDamperExt`` between ground and the coordinate
-  ``delta_t`` with limit stops: upper stop at ``e0 = e - F_nom/k`` (drive flank), lower stop at
-  ``mean(e0) - backlash`` (back flank), stop stiffness ``k`` and damping ``c``. A pre-step function sets
-  ``k`` and ``e0`` once per step to their averages over the step (4-point midpoint rule; mesh angles
-  from the nominal rotation: the angular deviation, < 1e-4 of a mesh period, is neglected in the
-  phase). Holding them over a step makes the scheme second order in ``h``: with ``h = 10 us`` the GMF
-  amplitudes of the discontinuous ISO spur table are within ~3 % of ``h = 2 us``;
+* the mesh: :class:`gearrom.rom.meshstep.MeshStepper`, a limit-stop coordinate spring on ``delta_t``
+  whose stiffness and stop position a pre-step function sets once per step from the mesh law
+  (secant, or load-dependent along the FE force-deflection map); mesh angles from the nominal
+  rotation (the angular deviation, < 1e-4 of a mesh period, is neglected in the phase). Holding the
+  parameters over a step (their step averages) makes the scheme second order in ``h``;
 * an optional ``LoadCoordinate`` for brake torque ripple on the retained brake coordinate.
 
 Explicit RK44 with a fixed step ``h = min(max_step, 2.2/rho, T_mesh/32)``, ``rho`` being the spectral
@@ -32,6 +30,7 @@ from gearrom.config import GearConfig
 from gearrom.errors import ModelError, SolverError
 from gearrom.rom.components import RZ
 from gearrom.rom.mesh import Effects, MeshLaw
+from gearrom.rom.meshstep import MeshStepper
 from gearrom.rom.model import Drivetrain
 from gearrom.rom.reduce import periodic_initial_state, reduce
 from gearrom.rom.result import DynamicRun
@@ -103,9 +102,8 @@ def simulate_run(config_or_model, rpm_in: float, torque_out_Nm: float | None = N
         The integration diverged.
     """
     import exudyn as exu
-    from exudyn.itemInterface import (LoadCoordinate, MarkerNodeCoordinate, NodeGenericData, NodeGenericODE2,
-                                      NodePointGround, ObjectConnectorCoordinateSpringDamperExt, ObjectGenericODE2,
-                                      SensorMarker, SensorNode)
+    from exudyn.itemInterface import (MarkerNodeCoordinate, NodeGenericODE2, ObjectGenericODE2, SensorMarker,
+                                      SensorNode)
 
     if not (rpm_in > 0 and math.isfinite(rpm_in)):
         raise ModelError(f"rpm_in must be positive, got {rpm_in!r}")
@@ -135,7 +133,6 @@ def simulate_run(config_or_model, rpm_in: float, torque_out_Nm: float | None = N
     t_end = settle + math.ceil(duration_s * fs - 1e-9) / fs
     n_steps = int(round(t_end / h))
     c_mesh = model.mesh_damping(torque)
-    f_nom = model.nominal_force(torque)
     backlash = model.mesh.backlash
     # the non-periodic error terms at t = 0 are taken up in the static preload
     e_offset = law.evaluate(theta0, theta0 * z1 / z2)[1] - law.base(theta0)[1]
@@ -148,81 +145,16 @@ def simulate_run(config_or_model, rpm_in: float, torque_out_Nm: float | None = N
                                        initialCoordinates_t=list(v0), numberOfODE2Coordinates=r))
     mbs.AddObject(ObjectGenericODE2(nodeNumbers=[node], massMatrix=red.M, stiffnessMatrix=red.K,
                                     dampingMatrix=red.D, forceVector=list(red.F)))
-    ground = mbs.AddNode(NodePointGround())
-    m_ground = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=ground, coordinate=0))
-    m_delta = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=node, coordinate=red.i_delta))
-    data = mbs.AddNode(NodeGenericData(numberOfDataCoordinates=3, initialCoordinates=[0.0, 0.0, 0.0]))
-    k0, e0 = law.evaluate(theta0, 0.0)
-    # back-flank stop at the mean separation point minus the backlash (its fluctuation of a few um is
-    # neglected against the backlash; saves one parameter update per step)
-    lower = float(np.mean(law.e_grid - f_nom / law.k_grid)) - backlash
-    conn = mbs.AddObject(ObjectConnectorCoordinateSpringDamperExt(
-        markerNumbers=[m_ground, m_delta], nodeNumber=data, useLimitStops=True,
-        limitStopsUpper=e0 - f_nom / k0, limitStopsLower=lower,
-        limitStopsStiffness=k0, limitStopsDamping=c_mesh))
-    load = None
+    m_brake = None
     if effects.load_ripple:
         m_brake = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=node, coordinate=red.i_brake))
-        load = mbs.AddLoad(LoadCoordinate(markerNumber=m_brake, load=0.0))
-    # mesh parameters at every step midpoint, precomputed (vectorised): the pre-step function only
-    # indexes them, which keeps the Python work per step to two parameter updates
-    # step averages (4-point midpoint rule) of k and of the force offset k e0, so that jumps of the table
-    # (pair entry/exit) fall at the right place within a step instead of at the nearest step midpoint;
-    # computed vectorised in chunks, the pre-step function only indexes them (two parameter updates)
-    sub = (np.arange(4) + 0.5) / 4
-    chunk = 1 << 16
-    inv_h = 1.0 / h
-    set_par = mbs.SetObjectParameter
-    cache = {"start": -1, "k": [], "up": [], "rip": None}
 
-    def fill(start: int) -> None:
-        idx = np.arange(start, min(start + chunk, n_steps + 1))
-        tm = ((idx[:, None] + sub[None, :]) * h).ravel()
-        th1, th2 = theta0 + omega * tm, theta0 * z1 / z2 + omega2 * tm
-        if law.load_dependent:
-            knots, scale = law.knots_array(th1, th2)
-            cache.update(start=start, knots=knots.reshape(-1, 4, knots.shape[1]).mean(axis=1).tolist(),
-                         scale=scale.reshape(-1, 4).mean(axis=1).tolist())
-        else:
-            k_arr, e_arr = law.evaluate_array(th1, th2)
-            k_avg = k_arr.reshape(-1, 4).mean(axis=1)
-            f0_avg = (k_arr * e_arr - f_nom).reshape(-1, 4).mean(axis=1)
-            cache.update(start=start, k=k_avg.tolist(), up=(f0_avg / k_avg).tolist())
-        if load is not None:
-            cache["rip"] = [law.ripple(a) for a in theta0 * z1 / z2 + omega2 * (idx + 0.5) * h]
+    def angles(tm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return theta0 + omega * tm, theta0 * z1 / z2 + omega2 * tm
 
-    fl = law.force_map.f.tolist() if law.load_dependent else []
-    m_seg = len(fl) - 2
-    coords = mbs.systemData.GetODE2Coordinates
-    i_delta = red.i_delta  # the reduced node is the system's first node: its coordinates lead
-
-    def segment(i: int) -> tuple[float, float]:
-        # the segment of the force-deflection map that holds the deflection at the start of the step
-        # gives the stop stiffness (tangent) and the stop position (where that segment meets F = 0)
-        row, s = cache["knots"][i], cache["scale"][i]
-        d = coords()[i_delta]
-        j = 0
-        while j < m_seg and d >= row[j + 1]:
-            j += 1
-        k = s * (fl[j + 1] - fl[j]) / (row[j + 1] - row[j])
-        return k, row[j] - s * fl[j] / k
-
-    def pre_step(mbs_, t):
-        # exudyn passes the END time t_n + h of the coming step: the step index is n = t/h - 1
-        n = int(t * inv_h + 0.5) - 1
-        i = n - cache["start"]
-        if i >= chunk or i < 0:
-            fill(n)
-            i = 0
-        k, up = segment(i) if law.load_dependent else (cache["k"][i], cache["up"][i])
-        set_par(conn, "limitStopsStiffness", k)
-        set_par(conn, "limitStopsUpper", up)
-        if load is not None:
-            mbs_.SetLoadParameter(load, "load", cache["rip"][i])
-        return True
-
-    fill(0)
-    mbs.SetPreStepUserFunction(pre_step)
+    mesh = MeshStepper(mbs, node, red.i_delta, law, c_mesh, backlash, h, n_steps, angles, m_brake)
+    m_delta = mesh.marker
+    mbs.SetPreStepUserFunction(mesh.pre_step)
     sens = mbs.AddSensor(SensorNode(nodeNumber=node, outputVariableType=exu.OutputVariableType.Coordinates,
                                     storeInternal=True, writeToFile=False))
     sens_v = mbs.AddSensor(SensorMarker(markerNumber=m_delta, outputVariableType=exu.OutputVariableType.Coordinates_t,

@@ -13,8 +13,8 @@ The ramp is built here on the public model objects (:func:`gearrom.rom.rig.build
   and only twists the shafts;
 * the reduced basis and the gyroscopic damping are those at the mid speed of the ramp (the
   gyroscopic terms of this rig are small against the mesh and bearing terms);
-* the mesh law (stiffness and kinematic error, effects included) is averaged over each step as in
-  the constant-speed run.
+* the mesh is the constant-speed run's own element (:class:`gearrom.rom.meshstep.MeshStepper`, the
+  secant or the load-dependent law, effects included), driven by the ramp's mesh angles.
 
 Order tracking: the sensor-side DTE is resampled onto a uniform grid of the nominal input angle
 (``samples_per_mesh`` per mesh period, cubic spline) and cut into blocks of ``block_mesh`` mesh
@@ -189,11 +189,11 @@ def simulate_runup(config_or_model, rpm_start: float, rpm_end: float, duration_s
         The integration diverged.
     """
     import exudyn as exu
-    from exudyn.itemInterface import (MarkerNodeCoordinate, NodeGenericData, NodeGenericODE2, NodePointGround,
-                                      ObjectConnectorCoordinateSpringDamperExt, ObjectGenericODE2, SensorNode)
+    from exudyn.itemInterface import NodeGenericODE2, ObjectGenericODE2, SensorNode
 
     from gearrom.rom.components import RZ
     from gearrom.rom.mesh import Effects
+    from gearrom.rom.meshstep import MeshStepper
     from gearrom.rom.reduce import periodic_initial_state, reduce
     from gearrom.rom.simulate import mesh_law
 
@@ -227,7 +227,6 @@ def simulate_runup(config_or_model, rpm_start: float, rpm_end: float, duration_s
     f_acc[model.index(model.motor_station, RZ)] += alpha * float(r @ M @ r)
     F_acc = red.T.T @ (red.phi.T @ f_acc)
     c_mesh = model.mesh_damping(torque)
-    f_nom = model.nominal_force(torque)
     e_offset = law.evaluate(theta0, theta0 * z1 / z2)[1] - law.base(theta0)[1]
     y0, v0 = periodic_initial_state(red, model, rpm_start, torque, law.k_grid, law.e_grid, theta0, e_offset=e_offset)
 
@@ -238,43 +237,21 @@ def simulate_runup(config_or_model, rpm_start: float, rpm_end: float, duration_s
                                        initialCoordinates_t=list(v0), numberOfODE2Coordinates=nr))
     body = mbs.AddObject(ObjectGenericODE2(nodeNumbers=[node], massMatrix=red.M, stiffnessMatrix=red.K,
                                            dampingMatrix=red.D, forceVector=list(red.F)))
-    ground = mbs.AddNode(NodePointGround())
-    m_ground = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=ground, coordinate=0))
-    m_delta = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=node, coordinate=red.i_delta))
-    data = mbs.AddNode(NodeGenericData(numberOfDataCoordinates=3, initialCoordinates=[0.0, 0.0, 0.0]))
-    k0, e0 = law.evaluate(theta0, theta0 * z1 / z2)
-    lower = float(np.mean(law.e_grid - f_nom / law.k_grid)) - model.mesh.backlash
-    conn = mbs.AddObject(ObjectConnectorCoordinateSpringDamperExt(
-        markerNumbers=[m_ground, m_delta], nodeNumber=data, useLimitStops=True, limitStopsUpper=e0 - f_nom / k0,
-        limitStopsLower=lower, limitStopsStiffness=k0, limitStopsDamping=c_mesh))
-    sub = (np.arange(4) + 0.5) / 4
-    chunk = 1 << 16
-    inv_h = 1.0 / h
-    set_par = mbs.SetObjectParameter
-    cache = {"start": -1, "k": [], "up": []}
     f_ramp = list(red.F + F_acc)
 
-    def fill(start: int) -> None:
-        idx = np.arange(start, min(start + chunk, n_steps + 1))
-        th1 = theta0 + _angle(((idx[:, None] + sub[None, :]) * h).ravel(), w0, alpha, settle, t_end)
-        k_arr, e_arr = law.evaluate_array(th1, theta0 * z1 / z2 + (th1 - theta0) * z1 / z2)
-        k_avg = k_arr.reshape(-1, 4).mean(axis=1)
-        f0_avg = (k_arr * e_arr - f_nom).reshape(-1, 4).mean(axis=1)
-        cache.update(start=start, k=k_avg.tolist(), up=(f0_avg / k_avg).tolist())
+    def angles(tm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        th1 = theta0 + _angle(tm, w0, alpha, settle, t_end)
+        return th1, theta0 * z1 / z2 + (th1 - theta0) * z1 / z2
+
+    mesh = MeshStepper(mbs, node, red.i_delta, law, c_mesh, model.mesh.backlash, h, n_steps, angles)
 
     def pre_step(mbs_, t):
-        n = int(t * inv_h + 0.5) - 1  # exudyn passes the end time of the coming step
-        if n == n_settle:
-            set_par(body, "forceVector", f_ramp)
-        i = n - cache["start"]
-        if i >= chunk or i < 0:
-            fill(n)
-            i = 0
-        set_par(conn, "limitStopsStiffness", cache["k"][i])
-        set_par(conn, "limitStopsUpper", cache["up"][i])
+        n = mesh.step_index(t)
+        if n == n_settle:  # the ramp starts: its acceleration load on the deviation coordinates
+            mbs_.SetObjectParameter(body, "forceVector", f_ramp)
+        mesh.update(n)
         return True
 
-    fill(0)
     mbs.SetPreStepUserFunction(pre_step)
     sens = mbs.AddSensor(SensorNode(nodeNumber=node, outputVariableType=exu.OutputVariableType.Coordinates,
                                     storeInternal=True, writeToFile=False))

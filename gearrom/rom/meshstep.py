@@ -1,0 +1,140 @@
+"""The mesh element of an exudyn time-domain run, updated once per step: :class:`MeshStepper`.
+
+Every model that integrates the mesh force in exudyn (the constant-speed run of
+:func:`gearrom.rom.simulate.simulate_run`, the speed ramp of :mod:`gearrom.study.runup`) adds the
+mesh through this class, so that one force law serves them all.
+
+The mesh is an ``ObjectConnectorCoordinateSpringDamperExt`` between ground and the reduced mesh
+coordinate ``delta_t`` with limit stops: the upper stop (drive flank) at the separation point
+``e0`` with stop stiffness ``k``, the lower stop (back flank) at the mean separation point minus the
+backlash, stop damping ``c``. A pre-step function sets ``k`` and ``e0`` before each step:
+
+* secant law (:class:`~gearrom.rom.mesh.MeshLaw` without a torque map): ``k`` and ``e0 = e - F_nom/k``
+  averaged over the step (4-point midpoint rule), so that the jumps of the table (pair entry/exit)
+  fall at the right place within a step; they are precomputed vectorised in chunks and the
+  pre-step only indexes them;
+* load-dependent law (:class:`~gearrom.rom.mesh.ForceMap`): the knots of the force-deflection map
+  averaged over the step likewise; the segment that holds the deflection at the start of the step
+  gives ``k`` (its tangent stiffness) and ``e0`` (where its line meets ``F = 0``).
+
+The mesh angles come from a function of time (``angles``), so a run at constant speed and a speed
+ramp use the same code.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from gearrom.rom.mesh import MeshLaw
+
+#: steps per precomputed chunk of mesh parameters
+CHUNK = 1 << 16
+_SUB = (np.arange(4) + 0.5) / 4
+
+
+class MeshStepper:
+    """Adds the mesh to an exudyn system and updates it once per step.
+
+    Parameters
+    ----------
+    mbs : exudyn MainSystem
+        The system; its first node must be the reduced ``NodeGenericODE2`` ``node`` (the pre-step
+        reads the mesh deflection from the system coordinates).
+    node : int
+        The reduced node.
+    i_delta : int
+        Index of the mesh deflection among the node's coordinates.
+    law : MeshLaw
+        The mesh law (secant or load-dependent) with the run's effects.
+    damping : float
+        Mesh damping [N s/m] (stop damping of both flanks).
+    backlash : float
+        Backlash on the transverse line of action [m].
+    h : float
+        Fixed time step [s].
+    n_steps : int
+        Number of steps of the run.
+    angles : callable
+        ``angles(t) -> (theta1, theta2)``: drive-sense angles [rad] of both gears at times ``t`` [s].
+    ripple_marker : int, optional
+        Coordinate marker of the brake: adds a ``LoadCoordinate`` with the law's load ripple.
+    """
+
+    def __init__(self, mbs, node: int, i_delta: int, law: MeshLaw, damping: float, backlash: float, h: float,
+                 n_steps: int, angles: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
+                 ripple_marker: int | None = None) -> None:
+        from exudyn.itemInterface import (LoadCoordinate, MarkerNodeCoordinate, NodeGenericData, NodePointGround,
+                                          ObjectConnectorCoordinateSpringDamperExt)
+
+        self.mbs, self.law, self.h, self.n_steps, self.angles = mbs, law, h, n_steps, angles
+        self.f_nom = law.f_nom
+        ground = mbs.AddNode(NodePointGround())
+        m_ground = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=ground, coordinate=0))
+        self.marker = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=node, coordinate=i_delta))
+        data = mbs.AddNode(NodeGenericData(numberOfDataCoordinates=3, initialCoordinates=[0.0, 0.0, 0.0]))
+        th1, th2 = angles(np.zeros(1))
+        k0, e0 = law.evaluate(float(th1[0]), float(th2[0]))
+        # back-flank stop at the mean separation point minus the backlash (its fluctuation of a few um
+        # is neglected against the backlash; saves one parameter update per step)
+        self.lower = float(np.mean(law.e_grid - law.f_nom / law.k_grid)) - backlash
+        self.conn = mbs.AddObject(ObjectConnectorCoordinateSpringDamperExt(
+            markerNumbers=[m_ground, self.marker], nodeNumber=data, useLimitStops=True,
+            limitStopsUpper=e0 - law.f_nom / k0, limitStopsLower=self.lower,
+            limitStopsStiffness=k0, limitStopsDamping=damping))
+        self.load = None
+        if ripple_marker is not None:
+            self.load = mbs.AddLoad(LoadCoordinate(markerNumber=ripple_marker, load=0.0))
+        self.cache: dict = {"start": -1}
+        self._fl = law.force_map.f.tolist() if law.load_dependent else []
+        self._coords = mbs.systemData.GetODE2Coordinates
+        self._i_delta = i_delta
+        self._fill(0)
+
+    def _fill(self, start: int) -> None:
+        law, h = self.law, self.h
+        idx = np.arange(start, min(start + CHUNK, self.n_steps + 1))
+        th1, th2 = self.angles(((idx[:, None] + _SUB[None, :]) * h).ravel())
+        c = self.cache
+        c["start"] = start
+        if law.load_dependent:
+            knots, scale = law.knots_array(th1, th2)
+            c["knots"] = knots.reshape(-1, 4, knots.shape[1]).mean(axis=1).tolist()
+            c["scale"] = scale.reshape(-1, 4).mean(axis=1).tolist()
+        else:
+            k_arr, e_arr = law.evaluate_array(th1, th2)
+            k_avg = k_arr.reshape(-1, 4).mean(axis=1)
+            f0_avg = (k_arr * e_arr - self.f_nom).reshape(-1, 4).mean(axis=1)
+            c["k"], c["up"] = k_avg.tolist(), (f0_avg / k_avg).tolist()
+        if self.load is not None:
+            c["rip"] = [law.ripple(a) for a in self.angles((idx + 0.5) * h)[1]]
+
+    def _segment(self, i: int) -> tuple[float, float]:
+        row, s, fl = self.cache["knots"][i], self.cache["scale"][i], self._fl
+        d = self._coords()[self._i_delta]
+        j, last = 0, len(fl) - 2
+        while j < last and d >= row[j + 1]:
+            j += 1
+        k = s * (fl[j + 1] - fl[j]) / (row[j + 1] - row[j])
+        return k, row[j] - s * fl[j] / k
+
+    def step_index(self, t: float) -> int:
+        """Index of the coming step: exudyn passes the END time ``t_n + h`` of the coming step."""
+        return int(t / self.h + 0.5) - 1
+
+    def update(self, n: int) -> None:
+        """Set the mesh parameters (and the load ripple) for step ``n``."""
+        i = n - self.cache["start"]
+        if i >= CHUNK or i < 0:
+            self._fill(n)
+            i = 0
+        k, up = self._segment(i) if self.law.load_dependent else (self.cache["k"][i], self.cache["up"][i])
+        self.mbs.SetObjectParameter(self.conn, "limitStopsStiffness", k)
+        self.mbs.SetObjectParameter(self.conn, "limitStopsUpper", up)
+        if self.load is not None:
+            self.mbs.SetLoadParameter(self.load, "load", self.cache["rip"][i])
+
+    def pre_step(self, mbs, t: float) -> bool:
+        """The exudyn pre-step user function of a run that needs nothing else per step."""
+        self.update(self.step_index(t))
+        return True
