@@ -170,3 +170,55 @@ def decode_chunk(a, b, z, t, row0, rate, levels, k, interp, si, sf, out_t, out_s
         si[LZ] = lz
     sf[XA], sf[XB], sf[T_PREV] = xa0, xb0, t0
     return n, nz
+
+
+@nb.njit(**_JIT)
+def new_positions(sign, rev):
+    """Edges reaching a new largest position, and whether the position fell back by two edges or more
+    between each of them and the previous one.
+
+    Returns ``(new, brk, first_deep)``: indices of the new-position edges, reversal flag per such edge
+    (False for the first), index of the first edge two or more below the running maximum (-1: none).
+    """
+    n = sign.size
+    new = np.empty(n, np.int64)
+    brk = np.zeros(n, np.bool_)
+    pos = 0
+    mx = 0  # largest position so far (the start position counts only for the first edge)
+    first_deep = -1
+    deep_since = False
+    m = 0
+    for i in range(n):
+        s = -np.int64(sign[i]) if rev else np.int64(sign[i])
+        pos += s
+        if pos > mx:
+            new[m] = i
+            brk[m] = deep_since and m > 0
+            m += 1
+            deep_since = False
+        mx = pos if i == 0 or pos > mx else mx
+        if mx - pos >= 2:
+            deep_since = True
+            if first_deep < 0:
+                first_deep = i
+    return new[:m], brk[:m], first_deep
+
+
+@nb.njit(**_JIT)
+def longest_stretch(tn, brk, standstill_s, trim):
+    """First longest (by duration) stretch of ``tn`` between breaks: ``(start, stop)`` indices.
+
+    A stretch breaks before edge ``m`` where ``brk[m]`` or, with ``trim``, where the time since the
+    previous edge exceeds ``standstill_s``.
+    """
+    best_a, best_b = 0, tn.size
+    best = -np.inf
+    a = 0
+    for m in range(1, tn.size + 1):
+        if m < tn.size and not (brk[m] or (trim and tn[m] - tn[m - 1] > standstill_s)):
+            continue
+        dur = tn[m - 1] - tn[a]
+        if dur > best:
+            best, best_a, best_b = dur, a, m
+        a = m
+    return best_a, best_b

@@ -199,32 +199,19 @@ def select_run(t: np.ndarray, sign: np.ndarray, *, period: int, min_speed_fracti
     one stretch and a reversal is an error.
     """
     rev = int(sign.sum(dtype=np.int64)) < 0
-    s = -sign if rev else sign
-    pos = np.cumsum(s, dtype=np.int64)
-    rm = np.maximum.accumulate(pos)
-    prev_max = np.concatenate([[0], rm[:-1]])
-    new = np.flatnonzero(pos > prev_max)
-    deep = (rm - pos) >= 2
+    new, brk, first_deep = qk.new_positions(np.ascontiguousarray(sign), rev)
     if new.size < 2 * period + 2:
         raise MeasurementError(f"only {new.size} forward edges")
-    cd = np.concatenate([[0], np.cumsum(deep)])
-    brk = np.zeros(new.size, bool)
-    brk[1:] = cd[new[1:]] - cd[new[:-1] + 1] > 0  # a reversal between two new-position edges
-    if not trim and deep.any():
-        j = int(np.argmax(deep))
-        raise MeasurementError(f"direction reversal at t={t[j]:.9g} s (trimming disabled)")
+    if not trim and first_deep >= 0:
+        raise MeasurementError(f"direction reversal at t={t[first_deep]:.9g} s (trimming disabled)")
     tn = t[new]
     if standstill_s is None:
         span = tn[period:] - tn[:-period]
-        fastest = np.percentile(span[span > 0], 1) / period if (span > 0).any() else np.inf
+        span = span[span > 0]
+        fastest = np.percentile(span, 1) / period if span.size else np.inf
+        del span
         standstill_s = fastest / min_speed_fraction
-    if trim:
-        brk[1:] |= np.diff(tn) > standstill_s
-    starts = np.concatenate([[0], np.flatnonzero(brk)])
-    ends = np.concatenate([starts[1:], [new.size]])
-    dur = tn[ends - 1] - tn[starts]
-    best = int(np.argmax(dur))
-    a, b = int(starts[best]), int(ends[best])
+    a, b = qk.longest_stretch(tn, brk, float(standstill_s), bool(trim))
     keep = new[a:b]
     cut = []
     if trim:

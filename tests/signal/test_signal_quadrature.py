@@ -351,3 +351,46 @@ def test_compiled_decoder_equals_numpy_reference(k, edge_time, dtype):
             np.testing.assert_array_equal(g, w)
         assert d.report.illegal == ref.illegal and d.report.illegal_first_t == ref.illegal_t
         assert d.report.index_positions == ref.index
+
+
+def _ref_select_run(t, sign, period, min_speed_fraction, trim=True):
+    """Vectorised statement of :func:`select_run`: kept edge indices."""
+    s = -sign if int(sign.sum(dtype=np.int64)) < 0 else sign
+    pos = np.cumsum(s, dtype=np.int64)
+    rm = np.maximum.accumulate(pos)
+    new = np.flatnonzero(pos > np.r_[0, rm[:-1]])
+    deep = (rm - pos) >= 2
+    if not trim and deep.any():
+        return None
+    cd = np.r_[0, np.cumsum(deep)]
+    brk = np.zeros(new.size, bool)
+    brk[1:] = cd[new[1:]] - cd[new[:-1] + 1] > 0
+    tn = t[new]
+    span = tn[period:] - tn[:-period]
+    standstill = np.percentile(span[span > 0], 1) / period / min_speed_fraction
+    if trim:
+        brk[1:] |= np.diff(tn) > standstill
+    starts = np.r_[0, np.flatnonzero(brk)]
+    ends = np.r_[starts[1:], new.size]
+    best = int(np.argmax(tn[ends - 1] - tn[starts]))
+    return new[starts[best]:ends[best]]
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_select_run_equals_numpy_reference(seed):
+    """Kept edges equal the vectorised statement on random walks: backward starts, reversals, jitter,
+    standstills, with and without trimming."""
+    rng = np.random.default_rng(seed)
+    n = 4000
+    sign = np.where(rng.random(n) < 0.8, 1, -1).astype(np.int8)
+    sign[:30] = -1  # starts backward: the start position is not a reached maximum
+    sign[2000:2040] *= -1 if seed % 2 else 1
+    t = np.cumsum(rng.exponential(1.0, n) * np.where(rng.random(n) < 0.002, 200.0, 1.0))
+    for trim, sign in [(True, sign), (False, sign), (True, -sign)]:
+        want = _ref_select_run(t, sign, 4, 0.05, trim)
+        if want is None:
+            with pytest.raises(MeasurementError, match="reversal"):
+                select_run(t, sign, period=4, min_speed_fraction=0.05, trim=trim)
+        else:
+            np.testing.assert_array_equal(select_run(t, sign, period=4, min_speed_fraction=0.05, trim=trim).keep,
+                                          want)
