@@ -6,9 +6,11 @@ A/B samples in an HDF5 file, the input at 5830 rpm: x4 edge rate 388.7 kHz on th
 5.15 samples per edge interval (10.3 on the output). The rate is not a whole multiple of the
 edge rate, so the sampling error of the edge times does not repeat with the angle (it would
 then show as a false shaft order). The file is processed by ``process_measurement`` in a fresh
-child process that reports its wall time and peak resident memory. Figures: edges/s,
-samples/s, peak memory (targets >= 5 M edges/s and memory bounded by the chunk size plus the
-decoded edges), and the TE accuracy against the emulated truth (rms of the difference after
+child process that reports its wall time and peak resident memory; the decoder alone (file to
+signed edges of both encoders, ``gearrom.signal.qload.decode``) runs in another fresh child.
+Figures: edges/s and peak memory of the decoder and of the whole processing (targets >= 5 M
+edges/s and memory bounded by the chunk size plus the decoded edges), samples/s, and the TE
+accuracy against the emulated truth (rms of the difference after
 the angle detrend and the unknown angle at the first edge are taken out; GMF amplitude).
 
 Usage::
@@ -73,6 +75,19 @@ def child(path: str) -> None:
                       "gmf_um": res.gmf_lines()[0][0] * 1e6, **accuracy(res)}))
 
 
+def child_decode(path: str) -> None:
+    from gearrom.signal.measurement import read_meta
+    from gearrom.signal.qload import decode
+    from gearrom.signal.settings import ReadSettings
+
+    meta = read_meta(path)
+    t0 = time.perf_counter()
+    dec = decode(meta, ReadSettings())
+    wall = time.perf_counter() - t0
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    print(json.dumps({"wall_s": wall, "peak_MB": peak, "n_edges": {ch: int(v[0].size) for ch, v in dec.items()}}))
+
+
 def accuracy(res) -> dict:
     """TE error against the emulated truth, um: rms and largest difference, after removing a line in the
     input angle (the angle detrend) and the truth's angle at the first edge (the angle origin)."""
@@ -104,18 +119,29 @@ def main() -> None:
     ap.add_argument("--dir", default="/tmp/gearrom_bench_quad")
     ap.add_argument("--keep", action="store_true")
     ap.add_argument("--child")
+    ap.add_argument("--child-decode")
     args = ap.parse_args()
     if args.child:
         child(args.child)
         return
+    if args.child_decode:
+        child_decode(args.child_decode)
+        return
+
+    def run(flag: str) -> dict:
+        out = subprocess.run([sys.executable, __file__, flag, str(path)], capture_output=True, text=True, check=True)
+        return json.loads(out.stdout.strip().splitlines()[-1])
+
     path = write(Path(args.dir), args.seconds)
-    out = subprocess.run([sys.executable, __file__, "--child", str(path)], capture_output=True, text=True, check=True)
-    r = json.loads(out.stdout.strip().splitlines()[-1])
+    rd = run("--child-decode")
+    r = run("--child")
+    dec_edges = sum(rd["n_edges"].values())
     edges = sum(r["n_edges"].values())
     samples = int(args.seconds * FS)
     figures = {"seconds": args.seconds, "sample_rate_hz": FS, "samples_per_channel": samples, "edges": edges,
                "wall_s": r["wall_s"], "edges_per_s": edges / r["wall_s"], "samples_per_s": 4 * samples / r["wall_s"],
-               "peak_MB": r["peak_MB"], "data_MB": 4 * 2 * samples / 2**20, "gmf_um": r["gmf_um"],
+               "peak_MB": r["peak_MB"], "decode_wall_s": rd["wall_s"], "decode_edges": dec_edges,
+               "decode_edges_per_s": dec_edges / rd["wall_s"], "decode_peak_MB": rd["peak_MB"], "data_MB": 4 * 2 * samples / 2**20, "gmf_um": r["gmf_um"],
                "target_edges_per_s": 5e6, "rpm_in": RPM, "samples_per_input_edge": FS / (RPM / 60 * 4 * LINES),
                **{k: r[k] for k in ("te_error_rms_um", "te_error_max_um", "te_truth_gmf_um", "first_edge_angle_rad")}}
     write_result("bench_signal_quadrature", figures)

@@ -85,7 +85,7 @@ def load_quadrature(meta: MeasurementMeta, settings: ReadSettings):
     repairs: list[Repair] = []
     sel = {}
     for ch in CHANNELS:
-        t, sign, rows, d = dec[ch]
+        t, sign, rows, d = dec.pop(ch)  # dropped after this iteration: only the kept edges stay
         if lo > -np.inf or hi < np.inf:
             w = (t >= lo) & (t < hi)
             t, sign, rows = t[w], sign[w], rows[w]
@@ -99,7 +99,7 @@ def load_quadrature(meta: MeasurementMeta, settings: ReadSettings):
             raise MeasurementError(f"{file}: channel {ch!r}: {exc}") from None
         sel[ch] = (t[rs.keep], rows[rs.keep])
         step = d.report.sample_step_s
-        tk = t[rs.keep]
+        tk = sel[ch][0]
         span = tk[period:] - tk[:-period]
         shortest = float(np.percentile(span, 1)) / period if span.size else math.nan
         rep = {"sample_rate_hz": 1.0 / step, "edge_rate_max_hz": 1.0 / shortest,
@@ -132,6 +132,7 @@ def load_quadrature(meta: MeasurementMeta, settings: ReadSettings):
         if rs.jitter_edges:
             log.info("%s: channel %r: %d back-and-forth edges (jitter on one line) not counted", file, ch,
                      rs.jitter_edges)
+        del t, sign, rows, tk, span, rs
     if settings.strict and repairs:
         raise MeasurementError(repairs[0].message() + " (strict mode: no repairs allowed)")
     t0 = max(sel[ch][0][0] for ch in CHANNELS)

@@ -94,10 +94,8 @@ class QuadratureDecoder:
         self._sf = np.full(qk.N_FLOAT, math.nan)
         self._levels = np.zeros(6)
         self._steps: list[float] = []
-        self._buf: tuple[np.ndarray, ...] = ()
-        self.t: list[np.ndarray] = []
-        self.sign: list[np.ndarray] = []
-        self.row: list[np.ndarray] = []
+        self._zbuf = np.empty(0, np.int64)
+        self._new_output()
 
     @property
     def pos(self) -> int:
@@ -112,11 +110,24 @@ class QuadratureDecoder:
             j = 2 * "abz".index(key)
             self._levels[j:j + 2] = lo, hi
 
-    def _buffers(self, m: int) -> tuple[np.ndarray, ...]:
-        """Output buffers for a chunk of ``m`` samples (at most two edges and one index pulse per sample)."""
-        if not self._buf or self._buf[0].size < 2 * m:
-            self._buf = (np.empty(2 * m), np.empty(2 * m, np.int8), np.empty(2 * m, np.int64), np.empty(m, np.int64))
-        return self._buf
+    def _new_output(self) -> None:
+        self.n = 0
+        self.t, self.sign, self.row = np.empty(0), np.empty(0, np.int8), np.empty(0, np.int64)
+
+    def _reserve(self, m: int) -> None:
+        """Room for the edges of ``m`` more samples (at most two per sample).
+
+        The arrays grow in place (``ndarray.resize``: a reallocation, which for large blocks remaps
+        the pages instead of copying them), so the edges are never held twice; capacity not yet
+        written costs no resident memory.
+        """
+        need = self.n + 2 * m
+        if self.t.size < need:
+            cap = max(need, int(1.5 * self.t.size))
+            for arr in (self.t, self.sign, self.row):
+                arr.resize(cap, refcheck=False)
+        if self._zbuf.size < m:
+            self._zbuf = np.empty(m, np.int64)
 
     def feed(self, t: np.ndarray | None, a: np.ndarray, b: np.ndarray, z: np.ndarray | None, row0: int,
              rate_hz: float | None = None) -> None:
@@ -154,26 +165,30 @@ class QuadratureDecoder:
             z = np.ascontiguousarray(cols[2])
         else:
             z = a[:0]
-        ot, os_, orow, oz = self._buffers(m)
+        self._reserve(m)
+        n0 = self.n
         n, nz = qk.decode_chunk(a, b, z, np.ascontiguousarray(t, np.float64), int(row0),
                                 float(rate_hz or 0.0), self._levels, int(self.k), self.edge_time == "interpolate",
-                                self._si, self._sf, ot, os_, orow, oz)
-        self.t.append(ot[:n].copy())
-        self.sign.append(os_[:n].copy())
-        self.row.append(orow[:n].copy())
+                                self._si, self._sf, self.t[n0:], self.sign[n0:], self.row[n0:], self._zbuf)
+        self.n = n0 + n
         if nz:
-            self.report.index_positions.extend(oz[:nz].tolist())
+            self.report.index_positions.extend(self._zbuf[:nz].tolist())
         self.report.illegal = int(self._si[qk.ILLEGAL])
         if self._si[qk.HAS_ILLEGAL]:
             self.report.illegal_first_t = float(self._sf[qk.ILLEGAL_T])
 
     def result(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """All edges so far: times (s), signs (+1/-1), sample indices."""
+        """Hand over the edges decoded so far: times (s), signs (+1/-1), sample indices.
+
+        The decoder keeps no reference to them (the caller owns the only copy, so memory is freed
+        when the caller drops them); a later call returns the edges decoded after this one.
+        """
         self.report.sample_step_s = float(np.median(self._steps)) if self._steps else math.nan
-        self._buf = ()
-        cat = (lambda lst, dt: np.concatenate(lst) if len(lst) > 1 else (lst[0] if lst else np.empty(0, dt)))
-        out = cat(self.t, np.float64), cat(self.sign, np.int8), cat(self.row, np.int64)
-        self.t, self.sign, self.row = [out[0]], [out[1]], [out[2]]
+        out = self.t, self.sign, self.row
+        for arr in out:
+            arr.resize(self.n, refcheck=False)  # give back the unused capacity
+        self._zbuf = np.empty(0, np.int64)
+        self._new_output()
         return out
 
 
