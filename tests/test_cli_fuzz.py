@@ -46,7 +46,9 @@ PLOT_OPTIONS = {"--plot", "--pattern"}  # figures: the extension selects the for
 ALLOW_NEGATIVE = {("diagnose", "--torque-out-Nm")}  # a load torque may have either sign, as in torque_out_Nm
 ALLOW_ZERO = {("diagnose", "--torque-out-Nm"), ("diagnose", "--max-effects"),  # 0: measure only, no fit
               ("validate", "--damping-ratio"),  # an undamped mesh (the fully integrated FE records)
-              ("campbell", "--min-share")}  # list every crossing
+              ("campbell", "--min-share"),  # list every crossing
+              ("te", "--t-start"), ("diagnose", "--t-start"),  # the record's start
+              *((c, o) for c in ("te", "diagnose") for o in ("--max-fill-edges", "--max-repairs"))}  # no repair
 #: Options not fuzzed, and why (every option with a value is cheap to check early at present).
 EXCLUDED: set[tuple[str, str]] = set()
 
