@@ -34,6 +34,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from gearrom.errors import MeasurementError
+from gearrom.signal import qkernel as qk
 from gearrom.signal.readers import EdgeChunk, first_bad, fmt_t
 from gearrom.signal.settings import ReadSettings
 
@@ -280,11 +281,8 @@ class EdgeStream:
         left = np.resize(ext, 2 * p)[:2 * p - self._prev_d.size] if self._prev_d.size < 2 * p else ext[:0]
         right = ext[-2 * p:] if ext.size >= 2 * p else np.resize(ext, 2 * p)
         ext = np.concatenate([left, ext, right])
-        n = d.size
-        a, b, c, e = ext[0:n], ext[p:n + p], ext[3 * p:n + 3 * p], ext[4 * p:n + 4 * p]
-        hi = np.maximum(np.maximum(a, b), np.maximum(c, e))
-        lo = np.minimum(np.minimum(a, b), np.minimum(c, e))
-        ref = (a + b + c + e - hi - lo) * 0.5
+        ref = np.empty(d.size)
+        qk.median4(ext, p, ref)
         if not (ref > 0).all():
             j = int(np.argmin(ref > 0))
             raise MeasurementError(f"{self.file}: channel {self.channel!r}: edge intervals around edge "
@@ -351,19 +349,7 @@ class EdgeStream:
         if k_end < self.next_k:
             return
         self._reserve(k_end + 1 - self.next_k, float(t_end))
-        bt, bc = self._buf_t, self._buf_c
-        tg = np.arange(self.next_k, k_end + 1) / self.fs
-        n = bt.size
-        i = np.clip(np.searchsorted(bt, tg, side="right") - 1, 0, n - 2)
-
-        def slope(j):
-            jl, jr = np.maximum(j - 1, 0), np.minimum(j + 1, n - 1)
-            return (bc[jr] - bc[jl]) / (bt[jr] - bt[jl])
-
-        h = bt[i + 1] - bt[i]
-        u = (tg - bt[i]) / h
-        u2, u3 = u * u, u * u * u
-        rel = ((-2 * u3 + 3 * u2) * (bc[i + 1] - bc[i]) + (u3 - 2 * u2 + u) * h * slope(i)
-               + (u3 - u2) * h * slope(i + 1))
-        self._out.append((bc[i] + rel) * self.dtheta)
+        out = np.empty(k_end + 1 - self.next_k)
+        qk.hermite_grid(self._buf_t, self._buf_c, self.next_k, self.fs, self.dtheta, out)
+        self._out.append(out)
         self.next_k = k_end + 1

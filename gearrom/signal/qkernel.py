@@ -1,4 +1,5 @@
-"""Compiled (numba) kernels of the sampled-quadrature decoder and of the forward-run selection.
+"""Compiled (numba) kernels of the sampled-quadrature decoder, the forward-run selection and the
+edge checks and interpolation of :class:`~gearrom.signal.edges.EdgeStream`.
 
 :func:`decode_chunk` does in one pass over a chunk of samples what
 :class:`~gearrom.signal.quadrature.QuadratureDecoder` specifies: Schmitt trigger of A, B and
@@ -7,6 +8,11 @@ crossing time interpolated between the two samples around a switch, x1/x2/x4 sel
 x4 position at each index pulse. Sample times are either given (``t``) or computed from the
 sample index and the sample rate, so no time array is built. The floating-point operations are
 those of the vectorised definition in the same order, so both give bit-identical edge times.
+
+:func:`median4` and :func:`hermite_grid` compute the local reference interval and the cubic
+Hermite angle on the grid with the same floating-point operations, in the same order, as their
+vectorised statements (kept in the tests), so both give bit-identical results without the
+per-edge and per-grid-sample temporary arrays.
 
 State arrays (one per encoder, owned by the decoder):
 
@@ -222,3 +228,66 @@ def longest_stretch(tn, brk, standstill_s, trim):
             best, best_a, best_b = dur, a, m
         a = m
     return best_a, best_b
+
+
+@nb.njit(**_JIT)
+def median4(ext, p, out):
+    """Mean of the middle two of ``ext[j], ext[j+p], ext[j+3p], ext[j+4p]`` into ``out[j]``.
+
+    That is ``(sum - max - min) / 2`` of the four intervals ``2p`` and ``p`` edges before and ``p``
+    and ``2p`` after interval ``j + 2p`` of ``ext`` (the padded intervals); ``out`` has
+    ``len(ext) - 4p`` entries.
+    """
+    for j in range(out.size):
+        a, b, c, e = ext[j], ext[j + p], ext[j + 3 * p], ext[j + 4 * p]
+        hi = max(max(a, b), max(c, e))
+        lo = min(min(a, b), min(c, e))
+        out[j] = (a + b + c + e - hi - lo) * 0.5
+
+
+@nb.njit(**_JIT)
+def _slope(bt, bc, j, n):
+    """Centred-difference slope (counts/s) at edge ``j`` (one-sided at the ends of the buffer)."""
+    jl = max(j - 1, 0)
+    jr = min(j + 1, n - 1)
+    return (bc[jr] - bc[jl]) / (bt[jr] - bt[jl])
+
+
+@nb.njit(**_JIT)
+def hermite_grid(bt, bc, k0, fs, dtheta, out):
+    """Cubic Hermite through the edges ``(bt, bc)`` at the grid times ``(k0 + m) / fs``, times ``dtheta``.
+
+    Parameters
+    ----------
+    bt : ndarray of float64
+        Edge times (s), non-decreasing, at least 2.
+    bc : ndarray of float64
+        Edge counts at those times.
+    k0 : int
+        Grid index of ``out[0]``.
+    fs : float
+        Grid rate (Hz).
+    dtheta : float
+        Angle per count (rad).
+    out : ndarray of float64
+        Angles (rad), written in place.
+
+    Notes
+    -----
+    The interval of grid time ``tg`` is the last edge at or before it (``searchsorted(bt, tg,
+    "right") - 1``) clipped to ``0 .. n-2``; the grid times increase, so one forward walk finds
+    them all.
+    """
+    n = bt.size
+    i = 0
+    for m in range(out.size):
+        tg = np.float64(k0 + m) / fs
+        while i < n - 2 and bt[i + 1] <= tg:
+            i += 1
+        h = bt[i + 1] - bt[i]
+        u = (tg - bt[i]) / h
+        u2 = u * u
+        u3 = u * u * u
+        rel = ((-2 * u3 + 3 * u2) * (bc[i + 1] - bc[i]) + (u3 - 2 * u2 + u) * h * _slope(bt, bc, i, n)
+               + (u3 - u2) * h * _slope(bt, bc, i + 1, n))
+        out[m] = (bc[i] + rel) * dtheta

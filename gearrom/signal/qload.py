@@ -26,6 +26,16 @@ from gearrom.signal.settings import ReadSettings
 
 log = logging.getLogger(__name__)
 
+#: Edges per piece fed to an EdgeStream: the edges are in memory already, so smaller pieces only
+#: bound the stream's per-piece working arrays (a few float64 per edge) without changing its result.
+STREAM_CHUNK_EDGES = 1 << 18
+
+#: Samples per piece fed to a decoder after the first chunk of a record without a time column. The
+#: decoder reserves room for two edges per fed sample; smaller pieces keep that unused reserve small.
+#: The first chunk goes whole (it sets the automatic switching levels), and pieces are cut only when
+#: the sample times come from the rate (with a time column the decoder's step estimate is per piece).
+DECODE_PIECE_SAMPLES = 1 << 18
+
 #: Above this sample step / shortest edge interval the decoder misses x4 edges (illegal transitions).
 TIMING_WARN_RATIO = 0.25
 
@@ -49,12 +59,18 @@ def decode(meta: MeasurementMeta, settings: ReadSettings) -> dict[str, tuple]:
         else:
             optional.append(f"{ch}_z")
     decs = {ch: QuadratureDecoder(ch, q.decoding, q.threshold, q.hysteresis, q.edge_time, file) for ch in CHANNELS}
+    first = True
     for chunk in iter_samples(meta, needed, optional, settings.chunk_rows):
-        for ch in CHANNELS:
-            e = meta.encoders[ch]
-            zname = e.z or f"{ch}_z"
-            decs[ch].feed(chunk.t, chunk.cols[e.a], chunk.cols[e.b], chunk.cols.get(zname), chunk.row0,
-                          rate_hz=chunk.rate_hz)
+        m = next(iter(chunk.cols.values())).size
+        piece = m if first or chunk.t is not None else DECODE_PIECE_SAMPLES
+        first = False
+        for a in range(0, m, piece):
+            b = min(m, a + piece)
+            for ch in CHANNELS:
+                e = meta.encoders[ch]
+                z = chunk.cols.get(e.z or f"{ch}_z")
+                decs[ch].feed(None if chunk.t is None else chunk.t[a:b], chunk.cols[e.a][a:b], chunk.cols[e.b][a:b],
+                              None if z is None else z[a:b], chunk.row0 + a, rate_hz=chunk.rate_hz)
     return {ch: (*d.result(), d) for ch, d in decs.items()}
 
 
@@ -97,7 +113,12 @@ def load_quadrature(meta: MeasurementMeta, settings: ReadSettings):
                             trim=settings.trim)
         except MeasurementError as exc:
             raise MeasurementError(f"{file}: channel {ch!r}: {exc}") from None
-        sel[ch] = (t[rs.keep], rows[rs.keep])
+        k = rs.keep
+        if k[-1] - k[0] + 1 == k.size:  # no jitter edge inside the run: views instead of copies
+            sel[ch] = (t[k[0]:k[-1] + 1], rows[k[0]:k[-1] + 1])
+        else:
+            sel[ch] = (t[k], rows[k])
+        del k
         step = d.report.sample_step_s
         tk = sel[ch][0]
         span = tk[period:] - tk[:-period]
@@ -141,15 +162,19 @@ def load_quadrature(meta: MeasurementMeta, settings: ReadSettings):
         raise MeasurementError(f"{file}: the forward-rotation stretches of 'input' and 'output' do not overlap")
     streams = {}
     for ch in CHANNELS:
-        t, rows = sel[ch]
+        t, rows = sel.pop(ch)  # only the common span stays
         m = (t >= t0) & (t <= t1)
-        t, rows = t[m], rows[m]
+        if not m.all():
+            t, rows = t[m], rows[m]
+        del m
         step = info["quadrature"][ch]["timing_resolution_s"]
         s = EdgeStream(ch, meta.encoders[ch].counts_per_shaft_rev, fs, file, "sample", settings, period=period,
                        timing_resolution_s=settings.timing_resolution_s or step)
-        for a in range(0, t.size, settings.chunk_rows):
-            s.feed(EdgeChunk(ch, t[a:a + settings.chunk_rows], rows[a:a + settings.chunk_rows]))
+        step = min(settings.chunk_rows, STREAM_CHUNK_EDGES)
+        for a in range(0, t.size, step):
+            s.feed(EdgeChunk(ch, t[a:a + step], rows[a:a + step]))
         streams[ch] = s
+        del t, rows
     if lo > -np.inf or hi < np.inf:
         info["window_s"] = [settings.t_start_s, settings.t_end_s]
     info["timing_resolution_s"] = max(info["quadrature"][ch]["timing_resolution_s"] for ch in CHANNELS)
