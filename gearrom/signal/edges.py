@@ -233,7 +233,8 @@ class EdgeStream:
             return
         keep = np.ones(n, bool)
         jit = 2.0 * self.res  # intervals within the timing jitter of the reference are normal
-        small = np.flatnonzero((r[:n_dec] < self.s.double_ratio) & (ref[:n_dec] - d[:n_dec] > jit))
+        small = np.flatnonzero(r[:n_dec] < self.s.double_ratio)  # candidates first: few, so the jitter test is cheap
+        small = small[ref[small] - d[small] > jit]
         if small.size:
             r = r.copy()
             self._remove_doubles(small, r, keep, d, e_t, e_row)
@@ -245,10 +246,11 @@ class EdgeStream:
             rk = dk / ref[acc[1:] - 1]
             rk[acc[1:] - 1 < unchecked] = 1.0
         else:  # the usual case: no edge removed, slices instead of index arrays
-            acc = np.arange(n_acc)
+            acc = range(n_acc)
             ta, dk, rk = e_t[:n_acc], d[:n_dec], r[:n_dec]
         inc = np.ones(dk.size, np.int64)
-        gaps = np.flatnonzero((rk > self.s.gap_ratio) & (dk - dk / rk > jit))
+        gaps = np.flatnonzero(rk > self.s.gap_ratio)
+        gaps = gaps[dk[gaps] - dk[gaps] / rk[gaps] > jit]
         for g in gaps:
             m = int(round(rk[g]))
             row, tt = int(e_row[acc[g + 1]]), float(ta[g + 1])
@@ -263,13 +265,19 @@ class EdgeStream:
             inc[g] = m
             self._repair("dropped_edges", row, tt, m - 1, f"{m - 1} dropped edge(s) detected from the speed "
                          f"(interval {rk[g]:.2f} x local mean) and filled by interpolation")
-        counts = self.last_count + np.concatenate([[0], np.cumsum(inc)])
+        if gaps.size:
+            counts = self.last_count + np.concatenate([[0], np.cumsum(inc)])
+        else:  # one count per interval
+            counts = self.last_count + np.arange(ta.size, dtype=np.int64)
         self._prev_d = np.concatenate([self._prev_d, dk])[-2 * self.period:]
         self._emit(ta, counts)
         self.last_t, self.last_row, self.last_count = float(ta[-1]), int(e_row[acc[-1]]), int(counts[-1])
-        rest = np.arange(n_acc, n)
-        rest = rest[keep[rest]]
-        self._tail_t, self._tail_row = e_t[rest], e_row[rest]
+        if small.size:
+            rest = np.arange(n_acc, n)
+            rest = rest[keep[rest]]
+            self._tail_t, self._tail_row = e_t[rest], e_row[rest]
+        else:
+            self._tail_t, self._tail_row = e_t[n_acc:], e_row[n_acc:]
 
     def _reference(self, d: np.ndarray) -> np.ndarray:
         """Local reference of each interval: median of the intervals ``2P`` and ``P`` edges before and
