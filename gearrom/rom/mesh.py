@@ -176,24 +176,28 @@ class ForceMap:
     f: np.ndarray
 
     @classmethod
-    def from_table(cls, excitation, rb2: float, n: int = 512) -> "ForceMap":
-        """The map of a :class:`~gearrom.excitation.table.MeshExcitation` (secant k and static TE per
-        torque; ``F = T / rb2``, kinematic TE ``e - F / k``) on ``n`` angles per mesh period."""
-        rows, forces = [], []
-        th = None
+    def from_table(cls, excitation, rb2: float, torque_ref: float, n: int = 512) -> "ForceMap":
+        """The map of a :class:`~gearrom.excitation.table.MeshExcitation` on ``n`` angles per mesh period.
+
+        Knot forces ``F_j = T_j / rb2``; knot deflections ``e_kin + F_j / k_j`` from the table's secant
+        stiffness ``k_j``, with the kinematic TE ``e_kin = e - F / k`` at the run's torque
+        ``torque_ref`` [N m]. For a table of the quasi-static FE (``k`` the secant of ``e``) the knots
+        are the static TE of each torque; a table whose stiffness was changed alone keeps its static
+        TE at ``torque_ref`` and scales the map's stiffness, as the secant law does.
+        """
+        th, k_ref, e_ref = excitation.sampled(float(torque_ref), n)
+        kin = e_ref - float(torque_ref) / rb2 / k_ref
+        rows, forces = [kin], [0.0]
         for T in np.sort(np.asarray(excitation.torque, dtype=float)):
-            th, k, e = excitation.sampled(float(T), n)
-            rows.append(e)
+            _, k, _ = excitation.sampled(float(T), n)
+            rows.append(kin + float(T) / rb2 / k)
             forces.append(float(T) / rb2)
-        f0 = forces[0]
-        th0, k0, e0 = excitation.sampled(float(np.min(excitation.torque)), n)
-        kin = e0 - f0 / k0
-        e = np.vstack([kin, *rows])
-        # the static TE grows with the load; round-off of nearly equal rows must not reverse it
+        e = np.vstack(rows)
+        # the deflection grows with the load; round-off of nearly equal rows must not reverse it
         gap = 1e-12 * max(float(np.ptp(e)), 1e-9)
         for j in range(1, e.shape[0]):
             e[j] = np.maximum(e[j], e[j - 1] + gap)
-        return cls(th, e, np.array([0.0, *forces]))
+        return cls(th, e, np.array(forces))
 
     @property
     def n_torques(self) -> int:
@@ -324,20 +328,27 @@ class MeshLaw:
         return mod, add
 
     def knots_array(self, th1: np.ndarray, th2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Knot deflections (N, m + 1) [m] of the load-dependent law at the angles, effects included
-        (the additive error shifts every knot; runout modulation shrinks each knot row's fluctuation
-        and scales the forces), and the force scale (N,)."""
+        """Knot deflections (N, m + 1) [m] of the load-dependent law at the angles, effects included,
+        and the force scale (N,) (ones: the modulation acts on the deflections).
+
+        The additive error shifts every knot. Runout modulation acts as in the secant law: the
+        deflection at the nominal force ``e_nom`` keeps ``e_nom - mod (e_nom - mean(e_nom))`` and the
+        map's stiffness is scaled by ``1 + mod`` about it (knot deflections relative to ``e_nom``
+        divided by ``1 + mod``); with one torque this is the secant law itself.
+        """
         fm = self.force_map
         th1, th2 = np.asarray(th1, dtype=float), np.asarray(th2, dtype=float)
         period = 2 * math.pi / self.z1
         xp = np.append(fm.theta, period)
         ph = np.mod(th1, period)
         mod, add = self.effect_terms(th1, th2)
+        nom = fm.static_te(self.f_nom)
+        v_nom = np.interp(ph, xp, np.append(nom, nom[0]))
+        base = v_nom - mod * (v_nom - nom.mean()) + add
         knots = np.empty((th1.size, fm.f.size))
         for j, row in enumerate(fm.e):
-            v = np.interp(ph, xp, np.append(row, row[0]))
-            knots[:, j] = v - mod * (v - row.mean()) + add
-        return knots, 1.0 + mod
+            knots[:, j] = base + (np.interp(ph, xp, np.append(row, row[0])) - v_nom) / (1.0 + mod)
+        return knots, np.ones_like(th1)
 
     def ripple(self, th2: float) -> float:
         """Brake torque ripple [N m] at output angle ``th2``."""

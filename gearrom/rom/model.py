@@ -170,13 +170,14 @@ class Drivetrain:
         rb1, rb2 = self.pair.rb
         return 1.0 / (rb1**2 / J[0] + rb2**2 / J[1])
 
-    def force_map(self, n: int = 512):
-        """:class:`~gearrom.rom.mesh.ForceMap` of the excitation table (``n`` angles per mesh period)."""
+    def force_map(self, torque_out: float, n: int = 512):
+        """:class:`~gearrom.rom.mesh.ForceMap` of the excitation table for a run at ``torque_out``
+        [N m] (``n`` angles per mesh period)."""
         from gearrom.rom.mesh import ForceMap
 
-        key = ("force_map", n)
+        key = ("force_map", float(torque_out), n)
         if key not in self._memo:
-            self._memo[key] = ForceMap.from_table(self.excitation, self.pair.rb[1], n)
+            self._memo[key] = ForceMap.from_table(self.excitation, self.pair.rb[1], torque_out, n)
         return self._memo[key]
 
     def mesh_stiffness(self, torque: float) -> float:
@@ -184,7 +185,7 @@ class Drivetrain:
         force-deflection map at the static loaded state when the table has a torque map and the law
         is load-dependent, else the table's secant stiffness."""
         if self.mesh.load_dependent and self.excitation.n_torque > 1:
-            return float(np.mean(self.force_map().tangent(self.nominal_force(torque))))
+            return float(np.mean(self.force_map(torque).tangent(self.nominal_force(torque))))
         return self.excitation.mean_stiffness(torque)
 
     def mesh_damping(self, torque: float) -> float:

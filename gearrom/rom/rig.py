@@ -40,7 +40,7 @@ DEFAULTS: dict[str, dict[str, Any]] = {
 }
 ROM_DEFAULTS = {"mesh_damping_ratio": 0.05, "shaft_damping_beta_us": 2.0, "backlash_um": 50.0,
                 "cutoff_frequency_kHz": 12.0, "min_mesh_energy_share": 1e-6, "max_step_us": 10.0,
-                "excitation": "analytical", "mesh_law": "load-dependent",
+                "excitation": "fe", "mesh_law": "load-dependent",
                 "excitation_torques_Nm": [], "n_theta": 256}
 
 

@@ -53,7 +53,7 @@ def mesh_law(model: Drivetrain, torque_out: float, effects: Effects | None = Non
     load-dependent (:class:`~gearrom.rom.mesh.ForceMap` of the table's torque map) when the table
     has several torques and ``model.mesh.load_dependent``, else the secant law at ``torque_out``."""
     th, k, e = model.excitation.sampled(torque_out, n)
-    fmap = model.force_map(n) if model.mesh.load_dependent and model.excitation.n_torque > 1 else None
+    fmap = model.force_map(torque_out, n) if model.mesh.load_dependent and model.excitation.n_torque > 1 else None
     return MeshLaw(model.pair, th, k, e, model.nominal_force(torque_out), effects or Effects(), fmap)
 
 

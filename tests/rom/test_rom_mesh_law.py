@@ -35,7 +35,7 @@ def test_force_map_reproduces_the_law_at_its_knots():
 
     rb2 = 0.03
     ex = _hertz_like_table(rb2)
-    fm = ForceMap.from_table(ex, rb2, n=64)
+    fm = ForceMap.from_table(ex, rb2, 120.0, n=64)
     assert fm.n_torques == 4 and fm.f[0] == 0.0
     np.testing.assert_allclose(fm.e[0], 1e-6 * np.sin(20 * fm.theta), atol=1e-15)  # kinematic TE row
     for j, T in enumerate(ex.torque):
