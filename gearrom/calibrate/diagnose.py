@@ -1,6 +1,6 @@
 """Close the loop: measured runs in, traced effects out, error before and after (:func:`diagnose`).
 
-Steps (issue 6): (1) simulate the nominal model at each run's measured speed and load and map it
+Steps: (1) simulate the nominal model at each run's measured speed and load and map it
 onto the run through the same TE processing; (2) residual, with the mesh phase estimated from the
 nominal GMF lines (never fitted to the residual); (3) characterize it (order lines, sidebands
 AM/PM, fixed-frequency vs order-tracking peaks, impulsive once-per-rev content, speed/load

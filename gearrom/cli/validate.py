@@ -1,4 +1,4 @@
-"""``gearrom validate``: the pair ROM against the explicit transient FE at given input speeds (issue 5)."""
+"""``gearrom validate``: the pair ROM against the explicit transient FE at given input speeds."""
 from __future__ import annotations
 
 import json

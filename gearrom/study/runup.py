@@ -4,7 +4,7 @@ The ramp is built here on the public model objects (:func:`gearrom.rom.rig.build
 :func:`gearrom.rom.simulate.mesh_law`, :func:`gearrom.rom.reduce.reduce`) in the same way as
 :func:`gearrom.rom.simulate.simulate_run` builds a constant-speed run:
 
-* the coordinates are deviations from the nominal rotation, which now follows the commanded speed
+* the coordinates are deviations from the nominal rotation, which follows the commanded speed
   profile: ``omega_1(t) = omega_0`` while the run settles (``settle_s``), then
   ``omega_0 + alpha (t - t_s)`` up to ``omega_end``; the mesh angles are the integrals of it;
 * the constant angular acceleration ``alpha`` loads the deviation coordinates with ``-alpha M r``
