@@ -197,3 +197,14 @@ def check_rpm_spec(option: str, spec: str | None, *, max_points: int = 1000, max
         raise _fail(option, spec, f"speeds must be finite, > 0 and <= {max_rpm:g} rpm")
     if n > max_points:
         raise _fail(option, spec, f"gives {n:g} speeds, more than {max_points}")
+
+
+#: a load torque beyond this multiple of the operating torque exceeds any tooth's strength
+TORQUE_FACTOR = 100.0
+
+
+def check_load_torque(option: str, value: float | None, operating_torque: float) -> None:
+    """A load torque option [N m]: positive and at most :data:`TORQUE_FACTOR` x the config's
+    ``operating.torque_out_Nm``; None passes."""
+    check_number(option, value, gt=0, le=TORQUE_FACTOR * operating_torque, unit="N m",
+                 key=f"<= {TORQUE_FACTOR:g} x operating.torque_out_Nm")

@@ -15,7 +15,7 @@ import warnings
 
 import numpy as np
 
-from gearrom.cli._args import check_number, check_output_dir
+from gearrom.cli._args import check_load_torque, check_number, check_output_dir
 from gearrom.errors import ConfigError
 
 NAME = "runup"
@@ -59,8 +59,7 @@ def run(args: argparse.Namespace) -> int:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         cfg = load_config(args.config)
-    if args.torque is not None:
-        check_number("--torque", args.torque, gt=0, le=100 * cfg.operating.torque_out, unit="N m")
+    check_load_torque("--torque", args.torque, cfg.operating.torque_out)
     from gearrom.rom.rig import build_rig
 
     with warnings.catch_warnings():

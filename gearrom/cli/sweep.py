@@ -18,17 +18,15 @@ import warnings
 
 import numpy as np
 
-from gearrom.cli._args import check_output_dir
+from gearrom.cli._args import check_load_torque, check_output_dir
 from gearrom.config import GearConfig, load_config
 from gearrom.errors import ConfigError
 
 NAME = "sweep"
 HELP = "dynamic transmission error over a speed range (reduced-order exudyn model)"
-#: bounds of the sweep settings: worker processes, samples per speed (memory of one run), and the load torque
-#: as a multiple of the operating torque (beyond it the tooth load exceeds any gear's strength)
+#: bounds of the sweep settings: worker processes and samples per speed (memory of one run)
 MAX_PROCESSES = 256
 MAX_SAMPLES = 2e7
-TORQUE_FACTOR = 100.0
 SWEEP_KEYS = {"rpm": "speeds 'START:STOP:STEP' [rpm]", "output_revolutions": "recorded output revolutions per speed",
               "samples_per_mesh": "samples per mesh period", "processes": "worker processes"}
 
@@ -73,11 +71,7 @@ def sweep_settings(cfg, args) -> dict:
         raise ConfigError(f"{src('--revs', 'output_revolutions')} must record at least one mesh period (>= "
                           f"{1 / z2:.4g} output revolutions for z2 = {z2}) and at most {MAX_SAMPLES:.0e} samples "
                           f"per speed, got {revs:g} revolutions")
-    if args.torque is not None:
-        limit = TORQUE_FACTOR * cfg.operating.torque_out
-        if not (math.isfinite(args.torque) and 0 < args.torque <= limit):
-            raise ConfigError(f"--torque must be a positive load torque of at most {TORQUE_FACTOR:g} x "
-                              f"operating.torque_out_Nm = {limit:g} N m, got {args.torque:g} N m")
+    check_load_torque("--torque", args.torque, cfg.operating.torque_out)
     return out
 
 

@@ -15,7 +15,7 @@ import sys
 import time
 import warnings
 
-from gearrom.cli._args import check_number, check_output_dir, check_rpm_spec
+from gearrom.cli._args import check_load_torque, check_number, check_output_dir, check_rpm_spec
 from gearrom.errors import ConfigError
 
 NAME = "tolerance"
@@ -60,8 +60,7 @@ def run(args: argparse.Namespace) -> int:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         cfg = load_config(args.config)
-    if args.torque is not None:
-        check_number("--torque", args.torque, gt=0, le=100 * cfg.operating.torque_out, unit="N m")
+    check_load_torque("--torque", args.torque, cfg.operating.torque_out)
     if args.revs * cfg.pair.z[1] < 1:
         raise ConfigError(f"--revs={args.revs!r}: must record at least one mesh period (>= {1 / cfg.pair.z[1]:.4g})")
     rpms = parse_rpm(args.rpm)
