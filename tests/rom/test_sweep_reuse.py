@@ -193,7 +193,7 @@ def test_cli_interrupted_outputs_keep_the_previous_files(tmp_path, monkeypatch):
     monkeypatch.setattr(Figure, "savefig", broken)
     assert main(args) == 130
     assert {f: (out / f).read_bytes() for f in before} == before
-    assert not [p.name for p in out.iterdir() if p.name.endswith(".part")]
+    assert not [p.name for p in out.iterdir() if p.name.startswith(".")]  # no temporary file left
 
 
 def test_concurrent_writers_of_one_file_do_not_collide(tmp_path):
