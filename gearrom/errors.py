@@ -36,3 +36,7 @@ class ModelError(GearromError, ValueError):
 
 class CalibrationError(GearromError, RuntimeError):
     """The diagnosis / identification could not be carried out."""
+
+
+class RunInterrupted(GearromError, RuntimeError):
+    """A long run stopped at its wall-time limit after writing a checkpoint; run it again to resume."""

@@ -129,7 +129,7 @@ def slow_run_deflection(pair, fe, reference, outline: float | None = None,
     phase0 = fe_start_mesh_phase(pair)
     j = int(np.argmin(np.abs(np.asarray(reference.torque) - torque)))
     share = share_rows(np.asarray(reference.load_share)[j], phase0 + th, period)
-    meshes = [gear_quad_mesh(pair, i, outline, body) for i in (0, 1)]
+    meshes = [gear_quad_mesh(pair, i, outline, body, project=False) for i in (0, 1)]   # the slow run's mesh
     gaps = faceted_pair_gaps(pair, meshes, th, share, phase0, pairs=reference.pairs)
     s = elastic_deflection(te, gaps, share)
     return SlowRunDeflection(theta_in=th, phi=np.mod(phase0 + th, period), te=te, gaps=gaps, share=share,

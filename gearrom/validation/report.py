@@ -87,12 +87,14 @@ def load_fe_record(fe_dir: str | Path, rpm: float, prefix: str = "spur", integra
     return FERecord(t=t, theta_in=th[:, 0] - th[0, 0], te=te, meta=meta, source="stored")
 
 
-def output_inertia(pair, outline_size: float, body_size: float, grading: float | None = None) -> tuple[float, str]:
-    """Polar inertia of the output gear from the explicit FE's own mesh (same sizes, m), and a label."""
+def output_inertia(pair, outline_size: float, body_size: float, grading: float | None = None,
+                   project: bool = False) -> tuple[float, str]:
+    """Polar inertia of the output gear from the explicit FE's own mesh (same sizes, m; ``project``: outline
+    nodes on the profile, :func:`gearrom.fe.explicit.gearmesh.gear_quad_mesh`), and a label."""
     from gearrom.fe.explicit.gearmesh import gear_quad_mesh
 
     kw = {} if grading is None else {"grading": grading}
-    nodes, quads, _ = gear_quad_mesh(pair, 1, outline_size, body_size, **kw)
+    nodes, quads, _ = gear_quad_mesh(pair, 1, outline_size, body_size, project=project, **kw)
     g = pair.gears[1]
     j = polar_inertia(nodes, quads, (0.0, 0.0), g.material.density, min(pair.gears[0].face_width, g.face_width))
     return j, f"rho b int r^2 dA over the FE output-gear quad mesh ({outline_size * 1e3:g}/{body_size * 1e3:g} mm)"
@@ -113,6 +115,7 @@ def fresh_fe_record(pair, rpm: float, torque: float, outline: float = 0.3e-3, bo
     t0 = time.perf_counter()
     res, te, _ = run_gear_pair(pair, meshes, setup, t_end=t_end, sample_period=1.0 / (f_mesh * 128))
     meta = {"t_steady_from_s": ramp + settle_periods / f_mesh, "torque_out_Nm": torque, "ramp_s": ramp,
+            "outline_on_profile": True,
             "outline_size_mm": outline * 1e3, "body_size_mm": body * 1e3, "t_end_s": t_end,
             "wall_s": time.perf_counter() - t0, "dt_s": res.meta.get("dt_s"), "mu": 0.0,
             "hourglass_ratio": res.hourglass_ratio}
@@ -145,8 +148,10 @@ class SpeedComparison:
 
 
 def facet_kinematic_te(pair, excitation, torque: float, outline: float, body: float, theta_end: float,
-                       per_period: int = 32) -> tuple[float, np.ndarray]:
-    """Kinematic TE of the FE's faceted outlines over input angles 0..theta_end: (step [rad], values [m])."""
+                       per_period: int = 32, project: bool = False) -> tuple[float, np.ndarray]:
+    """Kinematic TE of the FE's faceted outlines over input angles 0..theta_end: (step [rad], values [m]).
+
+    ``project``: the FE mesh has its outline nodes on the profile (:func:`gear_quad_mesh`)."""
     from gearrom.fe.explicit.gearmesh import gear_quad_mesh
     from gearrom.validation.facets import faceted_rigid_te, share_rows
     from gearrom.validation.pair_rom import fe_start_mesh_phase
@@ -157,7 +162,7 @@ def facet_kinematic_te(pair, excitation, torque: float, outline: float, body: fl
     phase0 = fe_start_mesh_phase(pair)
     j = int(np.argmin(np.abs(np.asarray(excitation.torque) - torque)))
     share_tab = np.asarray(excitation.load_share)[j]                       # (n_theta, n_pairs)
-    meshes = [gear_quad_mesh(pair, i, outline, body) for i in (0, 1)]
+    meshes = [gear_quad_mesh(pair, i, outline, body, project=project) for i in (0, 1)]
     k = np.asarray(excitation.stiffness(np.mod(phase0 + th, period), torque), float)
     share = share_rows(share_tab, phase0 + th, period)
     return step, faceted_rigid_te(pair, meshes, th, share, phase0, force=torque / pair.rb[1], stiffness=k,

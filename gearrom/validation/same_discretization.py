@@ -61,7 +61,7 @@ def static_parts(pair, table, theta_in: np.ndarray, outline: float, body: float,
     th = np.asarray(theta_in, float)
     phi = np.mod(phase0 + th, period)
     share = share_rows(np.asarray(table.load_share)[j], phase0 + th, period)
-    meshes = [gear_quad_mesh(pair, i, outline, body) for i in (0, 1)]
+    meshes = [gear_quad_mesh(pair, i, outline, body, project=False) for i in (0, 1)]   # the stored runs' mesh
     gaps = faceted_pair_gaps(pair, meshes, th, share, phase0, pairs=table.pairs)
     k = np.asarray(table.stiffness(phi, torque), float)
     kin = loaded_kinematic_te(gaps, share, torque / pair.rb[1], k, th)

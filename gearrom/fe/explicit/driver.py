@@ -4,10 +4,11 @@ from __future__ import annotations
 import logging
 import math
 import time
+from pathlib import Path
 
 import numpy as np
 
-from gearrom.errors import ConfigError, ModelError
+from gearrom.errors import ConfigError, ModelError, RunInterrupted
 from gearrom.fe.explicit.geometry import (color_elements, element_geometry, element_max_eigenvalue,
                                           element_max_eigenvalue_full, full_integration_data,
                                           hourglass_coefficients, nodal_omega2)
@@ -113,6 +114,8 @@ def prepare(model: ExplicitModel, safety: float = 0.9, max_candidates: int = 8) 
         r_fixtr[r] = 1 if ref.fix_translation else 0
         extra_w2.append(ref.bearing_k / R["M"][r])
         extra_w2.append(ref.spring_k / R["J"][r])
+    d["body"] = _bodies(model, kind) if model.relative_damping > 0 else -np.ones(n, np.int64)
+    d["r_fd"] = np.zeros((nr, 4))
     d.update(kind=kind, r_nodes=np.concatenate(r_nodes) if nr else np.zeros(0, np.int64),
              r_ptr=np.array(r_ptr, np.int64), r_off=np.concatenate(r_off) if nr else np.zeros((0, 2)),
              r_mode=r_mode, r_fixtr=r_fixtr, r_center=r_center, **{"r_" + k: v for k, v in R.items()})
@@ -198,6 +201,38 @@ def prepare(model: ExplicitModel, safety: float = 0.9, max_candidates: int = 8) 
     return d
 
 
+def _bodies(model: ExplicitModel, kind: np.ndarray) -> np.ndarray:
+    """Per node, the reference whose rigid frame the relative damping uses (-1: none).
+
+    A node belongs to the reference whose tied nodes lie in the same connected part of the mesh.
+
+    Raises
+    ------
+    ConfigError
+        Two references are tied to one connected part (its rigid frame is ambiguous).
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    n = model.nodes.shape[0]
+    conn = model.elements
+    a = conn.ravel()
+    b = np.roll(conn, -1, axis=1).ravel()
+    graph = coo_matrix((np.ones(a.size), (a, b)), shape=(n, n))
+    _, label = connected_components(graph, directed=False)
+    owner: dict[int, int] = {}
+    for r, ref in enumerate(model.references):
+        for lab in np.unique(label[kind == r]):
+            if owner.setdefault(int(lab), r) != r:
+                raise ConfigError(f"relative_damping: references {model.references[owner[int(lab)]].nodes!r} and "
+                                  f"{ref.nodes!r} are tied to the same body; its rigid frame is ambiguous")
+    body = np.array([owner.get(int(lab), -1) for lab in label], np.int64)
+    loose = int(np.count_nonzero((body < 0) & (kind < 0)))
+    if loose:
+        log.warning("relative_damping: %d nodes belong to no body with a reference and stay undamped", loose)
+    return body
+
+
 def stable_dt(model: ExplicitModel, safety: float = 0.9) -> float:
     """Stable time step of ``model`` times ``safety``, s."""
     return prepare(model, safety)["dt"]
@@ -243,9 +278,79 @@ def _open_edges(segs: np.ndarray, g_pair: np.ndarray) -> np.ndarray:
     return (single * (1 << np.arange(4))).sum(axis=1).astype(np.int64)
 
 
+#: loop state saved in a checkpoint (the prepared contact search buffers included: the search only
+#: reruns when the contact nodes have moved, so its candidate lists are state too)
+_STATE = ("u", "v", "a", "f", "r_pos", "r_vel", "r_acc", "r_th", "r_om", "r_al", "r_prev", "ld_fprev", "ld_uprev",
+          "c_usearch", "acc", "head", "nxt", "cand", "ncand", "gap")
+_OUT = ("out_t", "out_E", "out_th", "out_om", "out_tq", "out_pos", "out_pu", "out_pv")
+CHECKPOINT_FORMAT = "gearrom.explicit-checkpoint/1"
+
+
+def fingerprint(model: ExplicitModel, **settings) -> str:
+    """SHA-1 of every field of ``model`` and of the run ``settings``: a checkpoint resumes only the run
+    that wrote it."""
+    import dataclasses
+    import hashlib
+
+    h = hashlib.sha1()
+
+    def feed(value) -> None:
+        if isinstance(value, np.ndarray):
+            h.update(str((value.dtype.str, value.shape)).encode())
+            h.update(np.ascontiguousarray(value).tobytes())
+        elif isinstance(value, dict) or hasattr(value, "items"):
+            for k in sorted(value):
+                h.update(str(k).encode())
+                feed(value[k])
+        elif isinstance(value, (tuple, list)):
+            for x in value:
+                feed(x)
+        else:
+            h.update(repr(value).encode())
+        h.update(b"|")
+
+    for fld in dataclasses.fields(model):
+        h.update(fld.name.encode())
+        feed(getattr(model, fld.name))
+    feed(settings)
+    return h.hexdigest()
+
+
+def _save_checkpoint(path: Path, state: dict, out: dict, row: int, chunk: int, t0: float, wall: float,
+                     key: str) -> None:
+    from gearrom.fe.cache import atomic_path
+
+    arrays = {f"state_{k}": state[k] for k in _STATE}
+    arrays.update({k: out[k][:row] for k in _OUT})
+    with atomic_path(path) as tmp:
+        np.savez(tmp, format=np.array(CHECKPOINT_FORMAT), key=np.array(key), row=np.array(row),
+                 chunk=np.array(chunk), t0=np.array(t0), wall=np.array(wall), **arrays)
+
+
+def _load_checkpoint(path: Path, state: dict, out: dict, key: str) -> tuple[int, int, float, float]:
+    """Restore ``state`` and ``out`` in place from ``path``; return (row, next chunk, t0, wall so far)."""
+    try:
+        with np.load(path) as z:
+            if str(z["format"]) != CHECKPOINT_FORMAT:
+                raise ConfigError(f"checkpoint {path}: format {str(z['format'])!r}, expected {CHECKPOINT_FORMAT!r}")
+            if str(z["key"]) != key:
+                raise ConfigError(f"checkpoint {path} was written by a different model or run settings "
+                                  "(fingerprint mismatch); delete it or run without resume")
+            row = int(z["row"])
+            for k in _STATE:
+                state[k][...] = z[f"state_{k}"]
+            for k in _OUT:
+                out[k][:row] = z[k]
+            return row, int(z["chunk"]), float(z["t0"]), float(z["wall"])
+    except (OSError, KeyError, ValueError) as exc:
+        raise ConfigError(f"checkpoint {path} cannot be read ({exc}); delete it to start over") from None
+
+
 def solve(model: ExplicitModel, t_end: float, sample_period: float | None = None, *,
           dt: float | None = None, safety: float = 0.9, probes=(), chunks: int = 20,
-          prepared: dict | None = None, parallel: bool | None = None) -> ExplicitResult:
+          prepared: dict | None = None, parallel: bool | None = None,
+          checkpoint: str | Path | None = None, checkpoint_every: float = 300.0,
+          resume: bool = True, wall_limit: float | None = None) -> ExplicitResult:
     """Run the explicit dynamics of ``model`` from t = 0 to ``t_end``.
 
     Parameters
@@ -261,13 +366,37 @@ def solve(model: ExplicitModel, t_end: float, sample_period: float | None = None
     probes : sequence of int
         Node ids whose displacement/velocity histories are recorded.
     chunks : int
-        The run is split into this many compiled calls (progress logged between them).
+        The run is split into this many compiled calls; progress (time, ETA, energy balance) is logged
+        and checkpoints are written between them.
     prepared : dict, optional
         Output of :func:`prepare` for this model, to skip the set-up.
     parallel : bool, optional
         Use the multi-threaded loop (default: when the mesh has >= 20000 elements; below that the
         per-step thread start-up costs more than it saves, and much more on a loaded machine).
+    checkpoint : path, optional
+        File (``.npz``) that holds the complete loop state at a chunk boundary, written atomically at
+        most every ``checkpoint_every`` wall seconds and after the last chunk. With ``resume`` an
+        existing checkpoint of the same model and settings is continued from; the resumed run is bit
+        for bit the uninterrupted one (same chunks, same thread count).
+    checkpoint_every : float
+        Wall time between checkpoints, s.
+    resume : bool
+        Continue from ``checkpoint`` when it exists (otherwise it is overwritten).
+    wall_limit : float, optional
+        Wall time of this call, s: once a chunk ends past it, the checkpoint is written and
+        :class:`RunInterrupted` raised (a sitting with a fixed end; call again to resume).
+
+    Raises
+    ------
+    ConfigError
+        Bad times or probes, or a checkpoint of another model or settings.
+    ModelError
+        The run diverged.
+    RunInterrupted
+        ``wall_limit`` was reached (the checkpoint holds the run so far).
     """
+    if wall_limit is not None and checkpoint is None:
+        raise ConfigError("wall_limit needs a checkpoint file to resume from")
     if not t_end > 0:
         raise ConfigError(f"t_end must be > 0 s, got {t_end}")
     d = prepared if prepared is not None else prepare(model, safety)
@@ -282,6 +411,9 @@ def solve(model: ExplicitModel, t_end: float, sample_period: float | None = None
         raise ConfigError(f"sample_period must be > 0 s, got {sample_period}")
     out_every = max(1, math.ceil(sample_period / dt_max * (1 - 1e-12)))
     step_dt = sample_period / out_every
+    if model.relative_damping * step_dt > 0.5:
+        raise ConfigError(f"relative_damping {model.relative_damping:g} 1/s is too large for the step "
+                          f"{step_dt:.3e} s (alpha dt must stay below 0.5)")
     n_out_total = math.ceil(t_end / sample_period * (1 - 1e-12))
     n, dim = model.nodes.shape
     nr = len(model.references)
@@ -289,57 +421,85 @@ def solve(model: ExplicitModel, t_end: float, sample_period: float | None = None
     if probes.size and (probes.min() < 0 or probes.max() >= n):
         raise ConfigError(f"probes must be node ids in 0..{n - 1}")
     u, v, r_th, r_om, r_prev = _initial_state(model, d)
-    a = np.zeros_like(u)
-    f = np.zeros_like(u)
-    r_pos = np.zeros((nr, dim)); r_vel = np.zeros((nr, dim)); r_acc = np.zeros((nr, dim)); r_al = np.zeros(nr)
-    ld_fprev = np.zeros((d["ld_nodes"].size, dim))
-    ld_uprev = u[d["ld_nodes"]].copy() if d["ld_nodes"].size else np.zeros((0, dim))
-    c_usearch = np.zeros((d["c_nodes"].size, dim))
-    acc = np.zeros(8); acc[5] = -1.0
+    st = dict(u=u, v=v, a=np.zeros_like(u), f=np.zeros_like(u), r_pos=np.zeros((nr, dim)),
+              r_vel=np.zeros((nr, dim)), r_acc=np.zeros((nr, dim)), r_th=r_th, r_om=r_om, r_al=np.zeros(nr),
+              r_prev=r_prev, ld_fprev=np.zeros((d["ld_nodes"].size, dim)),
+              ld_uprev=u[d["ld_nodes"]].copy() if d["ld_nodes"].size else np.zeros((0, dim)),
+              c_usearch=np.zeros((d["c_nodes"].size, dim)), acc=np.zeros(8),
+              head=d["head"], nxt=d["nxt"], cand=d["cand"], ncand=d["ncand"], gap=d["gap"])
+    st["acc"][5] = -1.0
     nt = n_out_total + 1
-    out_t = np.zeros(nt); out_E = np.zeros((nt, NE_OUT)); out_th = np.zeros((nt, nr)); out_om = np.zeros((nt, nr))
-    out_tq = np.zeros((nt, nr)); out_pos = np.zeros((nt, nr, dim))
-    out_pu = np.zeros((nt, probes.size, dim)); out_pv = np.zeros((nt, probes.size, dim))
+    out = dict(out_t=np.zeros(nt), out_E=np.zeros((nt, NE_OUT)), out_th=np.zeros((nt, nr)),
+               out_om=np.zeros((nt, nr)), out_tq=np.zeros((nt, nr)), out_pos=np.zeros((nt, nr, dim)),
+               out_pu=np.zeros((nt, probes.size, dim)), out_pv=np.zeros((nt, probes.size, dim)))
     chunks = max(1, min(chunks, n_out_total))
     bounds = np.linspace(0, n_out_total, chunks + 1).round().astype(int)
     if parallel is None:
         parallel = model.elements.shape[0] >= 20000
     run_loop = run_loop_parallel if parallel else run_loop_serial
-    row = 0
-    t0 = 0.0
+    row, first, t0, wall_before = 0, 0, 0.0, 0.0
+    key = ""
+    if checkpoint is not None:
+        checkpoint = Path(checkpoint)
+        key = fingerprint(model, t_end=t_end, sample_period=sample_period, dt=step_dt, chunks=chunks,
+                          probes=probes, parallel=bool(parallel))
+        if resume and checkpoint.is_file():
+            row, first, t0, wall_before = _load_checkpoint(checkpoint, st, out, key)
+            log.info("explicit: resumed from %s at t = %.4e s (chunk %d of %d)", checkpoint, t0, first, chunks)
     wall0 = time.perf_counter()
-    for c in range(chunks):
+    last_save = wall0
+    steps_run = 0
+    for c in range(first, chunks):
         n_out = bounds[c + 1] - bounds[c]
         if n_out == 0:
             continue
         nsteps = n_out * out_every
         # chunk 0 writes rows [0, n_out]; a later chunk starts by rewriting the previous last row
         sl = slice(row - 1 if c else 0, None)
-        written = run_loop(nsteps, step_dt, out_every, t0, model.nodes, u, v, a, f, d["mass"], d["kind"],
-                           d["fixmask"], model.mass_damping, d["conn"], d["B"], d["V0"], d["gamma"],
-                           d["khg"], d["chg"], d["lam"], d["mu"], d["cptr"], d["full"], d["Bg"], d["Wg"],
-                           d["ld_nodes"], d["ld_ptr"], d["ld_force"], d["ld_t"], d["ld_val"], d["ld_npts"],
-                           ld_fprev, ld_uprev,
+        o = {k: x[sl] for k, x in out.items()}
+        written = run_loop(nsteps, step_dt, out_every, t0, model.nodes, st["u"], st["v"], st["a"], st["f"],
+                           d["mass"], d["kind"], d["fixmask"], model.mass_damping, d["body"],
+                           model.relative_damping, d["r_center"], d["r_fd"], d["conn"], d["B"], d["V0"],
+                           d["gamma"], d["khg"], d["chg"], d["lam"], d["mu"], d["cptr"], d["full"], d["Bg"],
+                           d["Wg"], d["ld_nodes"], d["ld_ptr"], d["ld_force"], d["ld_t"], d["ld_val"],
+                           d["ld_npts"], st["ld_fprev"], st["ld_uprev"],
                            d["r_nodes"], d["r_ptr"], d["r_off"], d["r_M"], d["r_J"], d["r_mode"],
                            d["r_speed"], d["r_ramp"], d["r_torque"], d["r_tramp"], d["r_k"], d["r_c"],
-                           d["r_fixtr"], d["r_kb"], d["r_cb"], r_pos, r_vel, r_acc, r_th, r_om, r_al, r_prev,
+                           d["r_fixtr"], d["r_kb"], d["r_cb"], st["r_pos"], st["r_vel"], st["r_acc"],
+                           st["r_th"], st["r_om"], st["r_al"], st["r_prev"],
                            d["slaves"], d["s_pair"], d["segs"], d["g_pair"], d["g_k"], d["g_rad"], d["p_mu"],
-                           d["p_vreg"], d["p_depth"], d["margin"], d["cell_h"], d["head"], d["nxt"],
-                           d["cand"], d["ncand"], d["gap"], d["seg_open"], d["c_nodes"], c_usearch,
-                           acc, out_t[sl], out_E[sl], out_th[sl], out_om[sl], out_tq[sl], out_pos[sl],
-                           probes, out_pu[sl], out_pv[sl])
+                           d["p_vreg"], d["p_depth"], d["margin"], d["cell_h"], st["head"], st["nxt"],
+                           st["cand"], st["ncand"], st["gap"], d["seg_open"], d["c_nodes"], st["c_usearch"],
+                           st["acc"], o["out_t"], o["out_E"], o["out_th"], o["out_om"], o["out_tq"],
+                           o["out_pos"], probes, o["out_pu"], o["out_pv"])
         row = (row - 1 if c else 0) + written
         t0 += nsteps * step_dt
-        if not np.all(np.isfinite(u)):
+        steps_run += nsteps
+        if not np.all(np.isfinite(st["u"])):
             raise ModelError(f"explicit run diverged before t = {t0:.4e} s (non-finite displacement)")
-        log.info("explicit: t = %.4e / %.4e s, wall %.1f s, energy balance error %.3g J (external work %.3g J)",
-                 t0, t_end, time.perf_counter() - wall0, out_E[row - 1, 9], out_E[row - 1, 8])
-    wall = time.perf_counter() - wall0
+        now = time.perf_counter()
+        rate = steps_run / (now - wall0)
+        eta = (n_out_total - bounds[c + 1]) * out_every / rate if rate > 0 else float("nan")
+        e = out["out_E"][row - 1]
+        log.info("explicit: t = %.4e / %.4e s (%.1f %%), wall %.0f s, ETA %.0f s, energy balance error %.3g J "
+                 "(strain + contact %.3g J, external work %.3g J)", t0, t_end, 100.0 * bounds[c + 1] / n_out_total,
+                 wall_before + now - wall0, eta, e[9], e[1] + e[2] + e[4], e[8])
+        if checkpoint is not None and (now - last_save >= checkpoint_every or c == chunks - 1):
+            _save_checkpoint(checkpoint, st, out, row, c + 1, t0, wall_before + now - wall0, key)
+            last_save = time.perf_counter()
+        if wall_limit is not None and now - wall0 >= wall_limit and c < chunks - 1:
+            _save_checkpoint(checkpoint, st, out, row, c + 1, t0, wall_before + now - wall0, key)
+            raise RunInterrupted(f"explicit run stopped at t = {t0:.4e} of {t_end:.4e} s (wall limit "
+                                 f"{wall_limit:g} s); checkpoint {checkpoint}: run again to resume")
+    wall = wall_before + time.perf_counter() - wall0
     nsteps_total = n_out_total * out_every
+    u, v = st["u"], st["v"]
+    out_t, out_E, out_th, out_om, out_tq, out_pos, out_pu, out_pv = (out[k] for k in _OUT)
     meta = dict(dim=dim, n_nodes=n, n_elements=int(model.elements.shape[0]), dt_s=step_dt,
                 dt_stable_s=d["dt_stable"], n_steps=nsteps_total, t_end_s=nsteps_total * step_dt,
                 sample_period_s=sample_period, wall_time_s=wall,
                 element_updates_per_s=nsteps_total * model.elements.shape[0] / wall,
+                relative_damping=model.relative_damping,
                 n_colors=int(d["cptr"].size - 1), parallel=bool(parallel), integration=model.integration,
                 hourglass_stiffness=model.hourglass_stiffness,
                 hourglass_viscosity=model.hourglass_viscosity, mass_damping=model.mass_damping,

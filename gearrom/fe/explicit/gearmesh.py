@@ -3,7 +3,11 @@
 The outline is the rack-generated tooth profile of :mod:`gearrom.geometry.profile` with the tip edges
 rounded as in the quasi-static FE (:func:`gearrom.fe.tipedge.tip_edge_radius`), cleaned as in
 :mod:`gearrom.fe.mesh2d`, repeated for all teeth and resampled at the boundary element size, with
-the bore circle. The size is ``outline_size`` on the outline and grows to ``body_size`` at
+the bore circle. Meshing puts nodes on the chords of that polyline (gmsh also splits every boundary
+segment at its midpoint); with ``project`` every outline node is then moved onto the generated
+profile itself (its nearest point on a profile sampled 10 times more densely), so that the rigid
+flanks carry no facet error: the facets' kinematic TE would otherwise be of the order of the elastic
+mesh-frequency TE. The size is ``outline_size`` on the outline and grows to ``body_size`` at
 ``grading`` (m) from it. Frame: gear centre at the origin, tooth 0 on +y.
 """
 from __future__ import annotations
@@ -15,14 +19,16 @@ import numpy as np
 from gearrom.errors import MeshError
 
 
-def _closed_outline(pair, i: int) -> np.ndarray:
+def _closed_outline(pair, i: int, density: int = 1) -> np.ndarray:
+    """Closed outline of all teeth; ``density`` multiplies the points per profile section."""
     from gearrom.fe.mesh2d import clean_profile   # same cleaning as the quasi-static meshes
     from gearrom.fe.tipedge import tip_edge_radius
     from gearrom.geometry.profile import rotate, tooth_profile
 
     # the same rounded tip edges as the quasi-static FE (config tip_edge_radius or its default)
     rho = tip_edge_radius(pair, i)[0]
-    prof = clean_profile(tooth_profile(pair, i, n_involute=80, n_fillet=40, n_tip=8, n_root=8, tip_edge_radius=rho))
+    prof = clean_profile(tooth_profile(pair, i, n_involute=80 * density, n_fillet=40 * density, n_tip=8 * density,
+                                       n_root=8 * density, tip_edge_radius=rho))
     z = pair.gears[i].z
     parts = [rotate(prof.points, -k * 2 * math.pi / z)[:-1] for k in range(z)]
     return np.vstack(parts)
@@ -40,9 +46,29 @@ def _resample_closed(poly: np.ndarray, h: float) -> np.ndarray:
 _ATTEMPTS = ((8, 1, 10), (8, 1, 0), (6, 1, 10), (5, 1, 10), (8, 0, 10))   # (algorithm, blossom, smoothing)
 
 
+def project_onto(points: np.ndarray, poly: np.ndarray) -> np.ndarray:
+    """Nearest points on the closed polyline ``poly`` (m, 2) of ``points`` (k, 2)."""
+    from scipy.spatial import cKDTree
+
+    near = cKDTree(poly).query(points)[1]
+    best = np.full(points.shape, np.nan)
+    dist = np.full(points.shape[0], np.inf)
+    m = poly.shape[0]
+    for shift in (-1, 0):                      # the two segments that meet at the nearest vertex
+        a = poly[(near + shift) % m]
+        b = poly[(near + shift + 1) % m]
+        ab = b - a
+        t = np.clip(np.einsum("ij,ij->i", points - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300), 0, 1)
+        q = a + t[:, None] * ab
+        dq = np.hypot(*(points - q).T)
+        better = dq < dist
+        best[better], dist[better] = q[better], dq[better]
+    return best
+
+
 def gear_quad_mesh(pair, i: int, outline_size: float, body_size: float | None = None,
-                   grading: float = 2e-3):
-    """Q4 mesh of gear ``i`` of ``pair``.
+                   grading: float = 2e-3, project: bool = True):
+    """Q4 mesh of gear ``i`` of ``pair``; ``project`` puts the outline nodes on the generated profile.
 
     Returns
     -------
@@ -59,12 +85,25 @@ def gear_quad_mesh(pair, i: int, outline_size: float, body_size: float | None = 
     last = None
     for algo, blossom, smooth in _ATTEMPTS:   # gmsh quads are occasionally degenerate at the root
         mesh = _mesh(pair, i, outline, outline_size, body_size, grading, algo, blossom, smooth)
+        if project:
+            mesh = _projected(mesh, _closed_outline(pair, i, density=10))
         try:
             element_geometry(mesh[0], mesh[1])
             return mesh
         except MeshError as exc:
             last = exc
     raise MeshError(f"gear {i}: no valid quad mesh at outline_size {outline_size * 1e3:.3f} mm ({last})")
+
+
+def _projected(mesh, exact: np.ndarray):
+    """The mesh with its outer boundary nodes (all boundary nodes but the bore's) on ``exact``."""
+    from gearrom.fe.explicit.model import boundary_segments
+
+    xy, quads, bore = mesh
+    edge = np.setdiff1d(np.unique(boundary_segments(quads)), bore)
+    xy = xy.copy()
+    xy[edge] = project_onto(xy[edge], exact)
+    return xy, quads, bore
 
 
 def _mesh(pair, i, outline, outline_size, body_size, grading, algo, blossom, smooth):

@@ -100,7 +100,7 @@ def helical_meshes(pair, outline_size: float, body_size: float | None = None, gr
 
     out = []
     for i in (0, 1):
-        nodes, quads, bore = gear_quad_mesh(pair, i, outline_size, body_size, grading)
+        nodes, quads, bore = gear_quad_mesh(pair, i, outline_size, body_size, grading, project=False)
         if project:
             nodes = _project_outline(pair, i, nodes, quads, bore)
         out.append((nodes, quads, bore))

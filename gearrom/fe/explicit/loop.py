@@ -11,8 +11,8 @@ neglected in the translation-rotation coupling) has generalized forces Q_c = sum
 springs, mass M = sum m_i + m_extra and inertia J = sum m_i |r_i,perp|^2 + J_extra.
 
 Energies (columns of ``out_E``): 0 kinetic, 1 internal, 2 hourglass (stiffness), 3 hourglass viscous
-dissipation, 4 contact penalty, 5 friction dissipation, 6 damping dissipation (mass damping, spring
-and bearing dampers), 7 spring potential (reference springs, bearings), 8 external work (loads,
+dissipation, 4 contact penalty, 5 friction dissipation, 6 damping dissipation (mass and relative
+damping, spring and bearing dampers), 7 spring potential (reference springs, bearings), 8 external work (loads,
 torques, prescribed-rotation reactions, drivers), 9 balance error sum(0..7) - 8 - E(t=0).
 """
 from __future__ import annotations
@@ -68,7 +68,7 @@ def _table(t, times, vals, npts):
 
 
 def _run_loop(nsteps, dt, out_every, t0,
-             X, u, v, a, f, mass, kind, fixmask, alpha,
+             X, u, v, a, f, mass, kind, fixmask, alpha, body, alpha_r, r_center, r_fd,
              conn, B, V0, gamma, khg, chg, lam, mu, cptr, full, Bg, Wg,
              ld_nodes, ld_ptr, ld_force, ld_t, ld_val, ld_npts, ld_fprev, ld_uprev,
              r_nodes, r_ptr, r_off, r_M, r_J, r_mode, r_speed, r_ramp, r_torque, r_tramp,
@@ -205,6 +205,37 @@ def _run_loop(nsteps, dt, out_every, t0,
                     acc[3] += 0.5 * (fl + ld_fprev[k, d]) * (u[i, d] - ld_uprev[k, d])
                     ld_fprev[k, d] = fl
                     ld_uprev[k, d] = u[i, d]
+        # ---- relative damping: a dashpot m alpha_r from each free node to the rigid frame of its body's
+        # reference (velocity relative to that frame); the reaction is summed per reference in r_fd
+        # (force x, y, z and torque about the axis) and applied to the reference below
+        pdr = 0.0
+        for r in range(nr):
+            for d in range(4):
+                r_fd[r, d] = 0.0
+        if alpha_r > 0.0:
+            for i in range(n):
+                r = body[i]
+                if r < 0 or kind[i] >= 0:
+                    continue
+                px = X[i, 0] + u[i, 0] - r_center[r, 0] - r_pos[r, 0]
+                py = X[i, 1] + u[i, 1] - r_center[r, 1] - r_pos[r, 1]
+                w = r_om[r]
+                cm = alpha_r * mass[i]
+                fx = 0.0 if fixmask[i, 0] else -cm * (v[i, 0] - r_vel[r, 0] + w * py)
+                fy = 0.0 if fixmask[i, 1] else -cm * (v[i, 1] - r_vel[r, 1] - w * px)
+                f[i, 0] += fx
+                f[i, 1] += fy
+                pdr += (fx * fx + fy * fy) / cm
+                r_fd[r, 0] -= fx
+                r_fd[r, 1] -= fy
+                r_fd[r, 3] -= px * fy - py * fx
+                if dim == 3:
+                    fz = 0.0 if fixmask[i, 2] else -cm * (v[i, 2] - r_vel[r, 2])
+                    f[i, 2] += fz
+                    pdr += fz * fz / cm
+                    r_fd[r, 2] -= fz
+            if step > 0:
+                acc[2] += pdr * dt
         # ---- free nodes: acceleration, mass damping, second half kick
         pd = 0.0
         for i in prange(n):
@@ -237,6 +268,7 @@ def _run_loop(nsteps, dt, out_every, t0,
                 if dim == 3:
                     qz += f[i, 2]
                 qt += rx * f[i, 1] - ry * f[i, 0]
+            qx += r_fd[r, 0]; qy += r_fd[r, 1]; qz += r_fd[r, 2]; qt += r_fd[r, 3]
             out_tq_r = qt
             text = r_torque[r] * ramp(t, r_tramp[r])
             tsp = 0.0

@@ -243,7 +243,14 @@ class ExplicitModel:
     hourglass_viscosity : float
         Flanagan-Belytschko viscous coefficient: c_hg = coef sqrt(rho (lambda+2mu)) V sqrt(sum(B^2)/dim).
     mass_damping : float
-        Mass-proportional damping alpha, 1/s (0: none).
+        Mass-proportional damping alpha, 1/s (0: none), on the absolute nodal velocity: it also
+        brakes a rigid rotation, so it suits quasi-static relaxation, not a running gear.
+    relative_damping : float
+        Mass-proportional damping alpha_r, 1/s (0: none), on each free node's velocity relative to the
+        rigid motion of the reference tied to its body (the connected part of the mesh that holds the
+        reference's nodes): a dashpot m alpha_r between the node and its gear's rigid frame, whose
+        reaction acts on the reference. It damps elastic vibration and leaves the rigid spin, the
+        total momentum and the angular momentum unchanged.
     initial_velocity : ndarray (n, dim) or None
         Initial nodal velocities, m/s (tied nodes take their reference's motion instead).
     initial_displacement : ndarray (n, dim) or None
@@ -267,6 +274,7 @@ class ExplicitModel:
     hourglass_stiffness: float = 0.05
     hourglass_viscosity: float = 0.0
     mass_damping: float = 0.0
+    relative_damping: float = 0.0
     initial_velocity: np.ndarray | None = None
     initial_displacement: np.ndarray | None = None
     mass_scaling_dt: float = 0.0
@@ -309,7 +317,8 @@ class ExplicitModel:
             raise ConfigError(f"ExplicitModel.thickness must be > 0 m, got {self.thickness}")
         if self.integration not in ("reduced", "full"):
             raise ConfigError(f"ExplicitModel.integration must be 'reduced' or 'full', got {self.integration!r}")
-        for name in ("hourglass_stiffness", "hourglass_viscosity", "mass_damping", "mass_scaling_dt"):
+        for name in ("hourglass_stiffness", "hourglass_viscosity", "mass_damping", "relative_damping",
+                     "mass_scaling_dt"):
             if not getattr(self, name) >= 0:
                 raise ConfigError(f"ExplicitModel.{name} must be >= 0, got {getattr(self, name)}")
         for r in self.references:
