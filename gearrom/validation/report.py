@@ -24,6 +24,7 @@ import numpy as np
 
 from gearrom.errors import ConfigError, MeasurementError
 from gearrom.validation.compare import TOLERANCES, compare_metrics, steady_window, te_metrics
+from gearrom.validation.gates import record_gates
 from gearrom.validation.pair_rom import (PairRomSetup, mesh_excitation, polar_inertia, scaled_excitation,
                                          simulate_pair_rom, table_samples)
 
@@ -44,6 +45,7 @@ class FERecord:
     te: np.ndarray
     meta: dict
     source: str = "stored"
+    energies: dict | None = None      # name -> J over the run (:data:`gearrom.fe.explicit.result.ENERGY_NAMES`)
 
 
 def replace_meta(excitation, **extra):
@@ -53,15 +55,18 @@ def replace_meta(excitation, **extra):
     return replace(excitation, metadata=dict(excitation.metadata, **extra))
 
 
-#: element integration of the explicit FE records: one-point + hourglass control, or full Gauss integration
-FE_INTEGRATIONS = ("reduced", "full")
+#: kinds of stored explicit FE records, best first: "loaded" (loaded static start, calibrated damping,
+#: fully integrated elements, outline nodes on the profile), "full" (gap start, fully integrated, no
+#: damping), "reduced" (gap start, one-point elements with hourglass control)
+FE_INTEGRATIONS = ("loaded", "full", "reduced")
+_SUFFIX = {"loaded": "_loaded", "full": "_full", "reduced": ""}
 
 
 def record_stem(fe_dir: str | Path, rpm: float, prefix: str = "spur", integration: str = "reduced") -> Path:
-    """``<fe_dir>/<prefix>_<rpm>rpm`` (one-point elements) or ``..._full`` (fully integrated elements)."""
+    """``<fe_dir>/<prefix>_<rpm>rpm`` plus ``_loaded``, ``_full`` or nothing (:data:`FE_INTEGRATIONS`)."""
     if integration not in FE_INTEGRATIONS:
-        raise ConfigError(f"FE integration must be one of {FE_INTEGRATIONS}, got {integration!r}")
-    return Path(fe_dir) / (f"{prefix}_{int(round(rpm))}rpm" + ("_full" if integration == "full" else ""))
+        raise ConfigError(f"FE record kind must be one of {FE_INTEGRATIONS}, got {integration!r}")
+    return Path(fe_dir) / (f"{prefix}_{int(round(rpm))}rpm" + _SUFFIX[integration])
 
 
 def load_fe_record(fe_dir: str | Path, rpm: float, prefix: str = "spur", integration: str = "reduced") -> FERecord:
@@ -69,7 +74,7 @@ def load_fe_record(fe_dir: str | Path, rpm: float, prefix: str = "spur", integra
     missing/broken file."""
     stem = record_stem(fe_dir, rpm, prefix, integration)
     npz, js = stem.with_suffix(".npz"), stem.with_suffix(".json")
-    flag = " --integration full" if integration == "full" else ""
+    flag = {"full": " --integration full", "loaded": " --start loaded --integration full", "reduced": ""}[integration]
     for p in (npz, js):
         if not p.is_file():
             raise MeasurementError(f"stored explicit FE result {p} is missing (run validation/run_explicit_{prefix}.py "
@@ -80,11 +85,13 @@ def load_fe_record(fe_dir: str | Path, rpm: float, prefix: str = "spur", integra
             if key not in d:
                 raise MeasurementError(f"{npz}: array {key!r} missing")
         t, te, th = d["t_s"], d["te_m"], d["theta_rad"]
+        energies = {k[len("energy_"):]: d[k] for k in d.files if k.startswith("energy_")} or None
     for key in ("t_steady_from_s", "torque_out_Nm"):
         if key not in meta:
             raise MeasurementError(f"{js}: key {key!r} missing")
-    meta.setdefault("integration", integration)
-    return FERecord(t=t, theta_in=th[:, 0] - th[0, 0], te=te, meta=meta, source="stored")
+    meta.setdefault("integration", "full" if integration == "loaded" else integration)
+    meta.setdefault("record", integration)
+    return FERecord(t=t, theta_in=th[:, 0] - th[0, 0], te=te, meta=meta, source="stored", energies=energies)
 
 
 def output_inertia(pair, outline_size: float, body_size: float, grading: float | None = None,
@@ -137,13 +144,16 @@ class SpeedComparison:
     misses: list
     fe_window: np.ndarray
     rom_window: np.ndarray
+    gates: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         return {"rpm_in": self.rpm_in, "fe_source": self.fe.source, "metrics": self.metrics, "passed": self.passed,
-                "misses": self.misses, "tolerances": TOLERANCES,
-                "fe": {k: self.fe.meta.get(k) for k in ("integration", "outline_size_mm", "body_size_mm", "dt_s",
-                                                        "n_elements", "wall_s", "t_end_s", "hourglass_ratio",
-                                                        "energy_error", "mu")},
+                "misses": self.misses, "tolerances": TOLERANCES, "gates": self.gates,
+                "noise_floor_um": self.gates.get("noise_floor_um"),
+                "fe": {k: self.fe.meta.get(k) for k in ("record", "integration", "start", "outline_size_mm",
+                                                        "body_size_mm", "dt_s", "n_elements", "wall_s", "t_end_s",
+                                                        "hourglass_ratio", "energy_error", "mu", "zeta_target",
+                                                        "relative_damping_per_s", "settle_periods")},
                 "rom": {k: v for k, v in self.rom_meta.items() if k != "excitation_definition"}}
 
 
@@ -203,7 +213,13 @@ def validate_speed(pair, rpm: float, fe: FERecord, excitation, excitation_label:
     wr = steady_window(rom.theta_in, rom.t, t_from, z1)
     m_fe = te_metrics(fe.theta_in[wf], fe.te[wf], z1)
     m_rom = te_metrics(rom.theta_in[wr], rom.te[wr], z1)
-    metrics, passed, misses = compare_metrics(m_rom, m_fe)
+    gates = record_gates(fe.theta_in[wf], fe.te[wf], z1, fe.energies)
+    floor = gates["noise_floor_um"]
+    metrics, passed, misses = compare_metrics(m_rom, m_fe, floor_um=floor)
+    if not gates["passed"]:
+        misses = misses + [f"FE record gate {g}: {gates[g]:.3g} >= {gates['limits'][g]:g} (not a reference)"
+                           for g in gates["failed"]]
+        passed = False
     meta = dict(rom.meta, rom_model=rom_model, excitation=excitation_label, inertia_source=inertia_label,
                 mesh_periods=m_rom["mesh_periods"],
                 table=table_provenance or {"table": "ltca"},
@@ -212,7 +228,7 @@ def validate_speed(pair, rpm: float, fe: FERecord, excitation, excitation_label:
     if kinematic is not None:       # diagnostic: the ROM of the ideal involute (mesh table only)
         rom_i = simulate_pair_rom(pair, excitation, setup, **span)
         wi = steady_window(rom_i.theta_in, rom_i.t, t_from, z1)
-        m_i, passed_i, misses_i = compare_metrics(te_metrics(rom_i.theta_in[wi], rom_i.te[wi], z1), m_fe)
+        m_i, passed_i, misses_i = compare_metrics(te_metrics(rom_i.theta_in[wi], rom_i.te[wi], z1), m_fe, floor_um=floor)
         meta["diagnostic_ideal_involute"] = {"metrics": m_i, "would_pass": passed_i, "misses": misses_i}
     # diagnostic (not part of the verdict): the same ROM with its mesh stiffness scaled so that the mean
     # elastic deflection equals the FE's, i.e. how much of the difference is the stiffness level
@@ -223,10 +239,10 @@ def validate_speed(pair, rpm: float, fe: FERecord, excitation, excitation_label:
         ex_s = scaled_excitation(replace_meta(excitation, rb2_m=pair.rb[1]), torque, scale)
         rom_s = simulate_pair_rom(pair, ex_s, setup, kinematic=kinematic, **span)
         ws = steady_window(rom_s.theta_in, rom_s.t, t_from, z1)
-        m_s, passed_s, misses_s = compare_metrics(te_metrics(rom_s.theta_in[ws], rom_s.te[ws], z1), m_fe)
+        m_s, passed_s, misses_s = compare_metrics(te_metrics(rom_s.theta_in[ws], rom_s.te[ws], z1), m_fe, floor_um=floor)
         meta["diagnostic_stiffness_matched"] = {"stiffness_scale": scale, "metrics": m_s, "would_pass": passed_s,
                                                 "misses": misses_s}
-    return SpeedComparison(rpm, fe, rom.t, rom.theta_in, rom.te, meta, metrics, passed, misses, wf, wr)
+    return SpeedComparison(rpm, fe, rom.t, rom.theta_in, rom.te, meta, metrics, passed, misses, wf, wr, gates)
 
 
 @dataclass(frozen=True, eq=False)
@@ -284,7 +300,7 @@ ROM_MODELS = ("pair", "exudyn")
 
 def validate(config: str, rpms, fe_dir: str | Path | None = None, fresh: bool = False,
              excitation_source: str = "fe", damping_ratio: float | None = None, facets: bool = True,
-             table: str = "ltca", rom_model: str = "pair", fe_integration: str | None = None) -> ValidationReport:
+             table: str = "ltca", rom_model: str | None = None, fe_integration: str | None = None) -> ValidationReport:
     """Compare the pair ROM with the explicit FE of ``config`` at each input speed in ``rpms``.
 
     Parameters
@@ -304,26 +320,29 @@ def validate(config: str, rpms, fe_dir: str | Path | None = None, fresh: bool = 
         without any (fully integrated elements, no mass damping, frictionless: :func:`fe_damping_ratio`)
         and 0.01 for the one-point records (their hourglass viscosity dissipates).
     facets : bool
-        Add the kinematic TE of the FE's faceted outlines to the ROM (same discretised gears).
+        Add the kinematic TE of the FE's faceted outlines to the ROM (same discretised gears). Records whose
+        outline nodes lie on the generated profile (``outline_on_profile``) get none: their chords are
+        within the profile's sag, which the tolerances do not resolve.
     table : str
         ``"ltca"`` (default): the quasi-static LTCA table (P2, 25 um flanks). ``"explicit_scaled"``: the
         LTCA table with its stiffness scaled to the static compliance of the explicit FE's own slow run
         ``spur_60rpm`` (Q4, 0.15 mm outline, penalty contact; scale 0.932, from static data only),
         :func:`gearrom.validation.explicit_table.explicit_scaled_excitation`; spur pairs, stored records,
         facets and the LTCA table only. Its provenance is written to each speed's ``rom.table``.
-    rom_model : str
-        ``"pair"`` (default; 1-DOF RK4, the FE's torque ramp) or ``"exudyn"`` (the project's drivetrain ROM
-        of the same system: :mod:`gearrom.validation.pair_exudyn`), see :func:`validate_speed`.
+    rom_model : str, optional
+        ``"pair"`` (1-DOF RK4, the FE's torque ramp) or ``"exudyn"`` (the project's drivetrain ROM of the
+        same system: :mod:`gearrom.validation.pair_exudyn`), see :func:`validate_speed`. Default: "exudyn"
+        for loaded-start records (both start loaded at speed), "pair" for the others.
     fe_integration : str, optional
         Stored records of the explicit FE with ``"full"`` (fully integrated Q4, no hourglass energy:
         ``spur_<rpm>rpm_full.*``) or ``"reduced"`` elements (one-point + hourglass control:
-        ``spur_<rpm>rpm.*``). Default for spur pairs: per speed the fully integrated record where it is
-        stored, else the one-point one (each speed's ``fe.integration`` in the report says which); the
-        same for helical records (``helical_<rpm>rpm[_full].*``, Hex8).
+        ``spur_<rpm>rpm.*``) or the ``"loaded"`` references (``spur_<rpm>rpm_loaded.*``: loaded static start,
+        calibrated damping). Default: per speed the first of "loaded", "full", "reduced" that is stored
+        (each speed's ``fe.record`` in the report says which); the same for helical records.
     """
     if fe_integration is not None and fe_integration not in FE_INTEGRATIONS:
         raise ConfigError(f"fe_integration must be one of {FE_INTEGRATIONS}, got {fe_integration!r}")
-    if rom_model not in ROM_MODELS:
+    if rom_model is not None and rom_model not in ROM_MODELS:
         raise ConfigError(f"rom_model must be one of {ROM_MODELS}, got {rom_model!r}")
     if table not in TABLES:
         raise ConfigError(f"table must be one of {TABLES}, got {table!r}")
@@ -342,7 +361,7 @@ def validate(config: str, rpms, fe_dir: str | Path | None = None, fresh: bool = 
                           "pair, stored records (not --fresh: other mesh), the outline facets (the scale is of the "
                           "elastic part) and the LTCA table (excitation 'fe')")
     if table == "explicit_scaled":
-        if fe_integration == "full":
+        if fe_integration in ("full", "loaded"):
             raise ConfigError("table='explicit_scaled' is the static compliance of the one-point (reduced) explicit "
                               "FE's slow run: compare it with the one-point records (fe_integration='reduced')")
         fe_integration = "reduced"
@@ -366,29 +385,39 @@ def validate(config: str, rpms, fe_dir: str | Path | None = None, fresh: bool = 
             _check_same_mesh(provenance, fe)
         key = (fe.meta.get("outline_size_mm", 0.15), fe.meta.get("body_size_mm", 1.5),   # helical: transverse mesh
                fe.meta.get("grading_mm"))
+        on_profile = bool(fe.meta.get("outline_on_profile", False))
+        key = key + (on_profile,)
         if key not in cache:
-            cache[key] = output_inertia(pair, key[0] * 1e-3, key[1] * 1e-3, None if key[2] is None else key[2] * 1e-3)
+            cache[key] = output_inertia(pair, key[0] * 1e-3, key[1] * 1e-3, None if key[2] is None else key[2] * 1e-3,
+                                        project=on_profile and not helical)
         j2, j_label = cache[key]
         kin = None
-        if facets:
+        if facets and not on_profile:
             kin = facet_kinematic_te(pair, ex, torque, key[0] * 1e-3, key[1] * 1e-3,
                                      rpm * 2 * math.pi / 60 * float(fe.t[-1]))
         zeta = fe_damping_ratio(fe) if damping_ratio is None else float(damping_ratio)
+        model = rom_model or ("exudyn" if fe.meta.get("start") == "loaded" else "pair")
         s = validate_speed(pair, rpm, fe, ex, ex_label, j2, j_label, zeta, kinematic=kin,
-                           table_provenance=provenance, rom_model=rom_model)
+                           table_provenance=provenance, rom_model=model)
         s.rom_meta["z1"] = pair.z[0]
         speeds.append(s)
     return ValidationReport(cfg.name, speeds)
 
 
 def _preferred_integration(fe_dir: Path, rpm: float, prefix: str = "spur") -> str:
-    """"full" where the fully integrated record of ``rpm`` is stored, else "reduced"."""
-    return "full" if record_stem(fe_dir, rpm, prefix, "full").with_suffix(".npz").is_file() else "reduced"
+    """The first kind of :data:`FE_INTEGRATIONS` stored for ``rpm`` ("reduced" when none is)."""
+    for kind in FE_INTEGRATIONS:
+        if record_stem(fe_dir, rpm, prefix, kind).with_suffix(".npz").is_file():
+            return kind
+    return "reduced"
 
 
 def fe_damping_ratio(fe: FERecord) -> float:
-    """The ROM mesh damping ratio that describes the FE record's system: 0 when the FE model dissipates
-    nothing (fully integrated elements, so no hourglass viscosity; no mass damping; mu = 0), else 0.01."""
+    """The ROM mesh damping ratio that describes the FE record's system: the record's calibrated ratio at
+    the mesh mode (``zeta_target``, loaded-start records), 0 when the FE model dissipates nothing (fully
+    integrated elements, so no hourglass viscosity; no mass damping; mu = 0), else 0.01."""
+    if "zeta_target" in fe.meta:
+        return float(fe.meta["zeta_target"])
     undamped = (fe.meta.get("integration") == "full" and not fe.meta.get("mass_damping_per_s", 0.0)
                 and not fe.meta.get("mu", 0.0))
     return 0.0 if undamped else 0.01

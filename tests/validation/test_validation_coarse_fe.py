@@ -51,7 +51,7 @@ def runs(spur):
     from gearrom.fe.sweep import stiffness_sweep
 
     pair = spur.pair
-    meshes = [gear_quad_mesh(pair, i, 0.3e-3, 2e-3) for i in (0, 1)]
+    meshes = [gear_quad_mesh(pair, i, 0.3e-3, 2e-3, project=False) for i in (0, 1)]   # chord outline: facets
     f_mesh = RPM / 60 * pair.z[0]
     sample = 1 / (f_mesh * 128)
     setup = GearPairSetup(rpm_in=RPM, torque_out=TORQUE, torque_ramp_time=RAMP)
@@ -74,7 +74,7 @@ def full_run(spur):
     from gearrom.fe.explicit.gearpair import GearPairSetup, run_gear_pair
 
     pair = spur.pair
-    meshes = [gear_quad_mesh(pair, i, 0.3e-3, 2e-3) for i in (0, 1)]
+    meshes = [gear_quad_mesh(pair, i, 0.3e-3, 2e-3, project=False) for i in (0, 1)]   # chord outline: facets
     sample = 1 / (RPM / 60 * pair.z[0] * 128)
     setup = GearPairSetup(rpm_in=RPM, torque_out=TORQUE, torque_ramp_time=RAMP, integration="full")
     res, te, _ = run_gear_pair(pair, meshes, setup, t_end=T_END, sample_period=sample)
