@@ -107,3 +107,38 @@ def test_coulomb_friction_deceleration():
     assert abs(decel / expected - 1) < 0.03, (decel, expected)
     assert res.energy("friction")[-1] > 0
     assert res.energy_error < 5e-3
+
+
+def test_sliding_across_unequal_segments_conserves_energy():
+    """Frictionless block pressed onto a base whose top edges alternate between two lengths (1:3) and
+    sliding across them: the penalty energy must stay continuous as nodes pass from one segment to the
+    next (a penalty per segment, k ~ A^2 / V, would create or destroy (k2 - k1) g^2 / 2 at each
+    passage). Reference: energy conservation of the frictionless system; the balance error must stay
+    below 1 % of the peak contact energy (the ROM-vs-FE reference gate)."""
+    thk, v0, p_total = 0.01, 1.0, 2.0e4
+    base, base_el = rectangle_q4(0.2, 0.01, 40, 2, x0=-0.05, y0=-0.01)
+    xs = np.unique(base[:, 0])
+    widths = np.where(np.arange(xs.size - 1) % 2 == 0, 1.0, 3.0)
+    new_x = -0.05 + np.concatenate([[0.0], np.cumsum(widths)]) / widths.sum() * 0.2
+    base[:, 0] = np.interp(base[:, 0], xs, new_x)
+    blk, blk_el = rectangle_q4(0.02, 0.01, 8, 4, y0=1e-6)
+    nb = base.shape[0]
+    nodes = np.vstack([base, blk])
+    elements = np.vstack([base_el, blk_el + nb])
+    segs = boundary_segments(base_el)
+    master = segs[np.abs(base[segs].mean(axis=1)[:, 1]) < 1e-12]
+    bottom = nb + np.nonzero(blk[:, 1] < 2e-6)[0]
+    top = nb + np.nonzero(blk[:, 1] > 0.01)[0]
+    block = nb + np.arange(blk.shape[0])
+    vel = np.zeros_like(nodes)
+    vel[block, 0] = v0
+    load = NodalLoad("top", (0.0, -p_total / top.size), times=(0.0, 1e-3), factors=(0.0, 1.0))
+    model = ExplicitModel(nodes, elements, Material(), thickness=thk,
+                          node_sets={"base": np.arange(nb), "bottom": bottom, "top": top},
+                          surfaces={"base_top": master}, fixed={"base": (0, 1)}, loads=(load,),
+                          contacts=(ContactPair("bottom", "base_top", penalty_scale=0.3),),
+                          initial_velocity=vel, integration="full")
+    res = solve(model, 8e-3, sample_period=2e-5)
+    peak = res.energy("contact").max()
+    assert peak > 0
+    assert np.abs(res.energy("balance_error")).max() < 0.01 * peak, (np.abs(res.energy("balance_error")).max(), peak)

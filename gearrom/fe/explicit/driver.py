@@ -152,7 +152,10 @@ def prepare(model: ExplicitModel, safety: float = 0.9, max_candidates: int = 8) 
             area = np.linalg.norm(xs[:, 1] - xs[:, 0], axis=1) * model.thickness
         else:
             area = 0.5 * np.linalg.norm(np.cross(xs[:, 2] - xs[:, 0], xs[:, 3] - xs[:, 1]), axis=1)
-        k = cp.penalty_scale * (lam + 2 * mu) * area ** 2 / V0[own]
+        # one penalty per pair (the median of the per-segment estimate scale (lambda + 2 mu) A^2 / V): the
+        # potential k g^2 / 2 of a node then stays continuous when it passes from one master segment to
+        # the next; per-segment values would create or destroy (k2 - k1) g^2 / 2 at every such passage
+        k = np.full(len(sg), cp.penalty_scale * np.median((lam + 2 * mu) * area ** 2 / V0[own]))
         cen = xs.mean(axis=1)
         rad = np.linalg.norm(xs - cen[:, None, :], axis=2).max(axis=1)
         hel = (V0[own] / (model.thickness if dim == 2 else 1.0)) ** (1.0 / dim)

@@ -158,8 +158,9 @@ class ContactPair:
     mu : float
         Coulomb friction coefficient (0: frictionless), regularized by ``v_reg``.
     penalty_scale : float
-        Penalty stiffness factor f_s in k = f_s (lambda + 2 mu) A_seg^2 / V_el (the LS-DYNA form
-        with the P-wave modulus; 2D: A_seg = edge length * thickness).
+        Penalty stiffness factor f_s in k = f_s median((lambda + 2 mu) A_seg^2 / V_el) over the master
+        segments (the LS-DYNA form with the P-wave modulus; 2D: A_seg = edge length * thickness); one
+        value per pair, so that the penalty energy is continuous as a node slides across segments.
     v_reg : float
         Slip velocity (m/s) below which friction is regularized: f_t = -mu f_n v_t/sqrt(v_t^2+v_reg^2).
     capture_depth : float or None
