@@ -73,16 +73,26 @@ def fe_start_mesh_phase(pair) -> float:
     return float(np.mod((roll - pair.roll_start_active[0]) / rb1, 2 * math.pi / pair.z[0]))
 
 
-def mesh_excitation(pair, torque: float, source: str = "fe", n_positions: int = 64, config_name: str = ""):
+def mesh_excitation(pair, torque: float, source: str = "fe", n_positions: int = 64, config_name: str = "",
+                    torque_map: bool = False):
     """The MeshExcitation for the ROM and a label of where it came from.
 
     ``source``: ``"fe"`` (quasi-static FE LTCA sweep, cached on disk), ``"analytical"`` (ISO-shaped
     table) or ``"auto"`` (FE, falling back to the analytical table if the FE sweep fails).
+    ``torque_map``: the FE table over the sweep's torque map about ``torque``
+    (:func:`gearrom.excitation.fe.fe_excitation`, the table ``gearrom sweep`` runs), so that the ROM's
+    mesh law is the load-dependent force-deflection map; otherwise the table at ``torque`` only (secant law).
     """
     if source not in ("fe", "analytical", "auto"):
         raise ModelError(f"excitation source must be 'fe', 'analytical' or 'auto', got {source!r}")
     if source in ("fe", "auto"):
         try:
+            if torque_map:
+                from gearrom.excitation.fe import fe_excitation, torque_map as torques_about
+
+                torques = torques_about(float(torque))
+                ex = fe_excitation(pair, torques, n_positions)
+                return ex, f"fe_ltca ({n_positions} positions, torque map {', '.join(f'{t:g}' for t in torques)} N m)"
             from gearrom.fe.sweep import stiffness_sweep
 
             ex = stiffness_sweep(pair, [float(torque)], n_positions).to_excitation()

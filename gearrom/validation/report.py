@@ -376,11 +376,14 @@ def validate(config: str, rpms, fe_dir: str | Path | None = None, fresh: bool = 
     cache: dict = {}
     for rpm, fe in records.items():
         torque = float(fe.meta["torque_out_Nm"])
-        if torque not in cache:
-            cache[torque] = mesh_excitation(pair, torque, excitation_source, config_name=cfg.name) + (None,)
+        loaded = fe.meta.get("start") == "loaded"       # the references: the sweep's load-dependent table
+        tkey = (torque, loaded)
+        if tkey not in cache:
+            cache[tkey] = mesh_excitation(pair, torque, excitation_source, config_name=cfg.name,
+                                          torque_map=loaded) + (None,)
             if table == "explicit_scaled":
-                cache[torque] = _explicit_scaled(pair, cache[torque][0], fe_dir, torque)
-        ex, ex_label, provenance = cache[torque]
+                cache[tkey] = _explicit_scaled(pair, cache[tkey][0], fe_dir, torque)
+        ex, ex_label, provenance = cache[tkey]
         if provenance is not None:
             _check_same_mesh(provenance, fe)
         key = (fe.meta.get("outline_size_mm", 0.15), fe.meta.get("body_size_mm", 1.5),   # helical: transverse mesh
