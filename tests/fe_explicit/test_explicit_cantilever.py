@@ -14,30 +14,17 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from cantilever import cantilever_strip
 
 from gearrom.fe.explicit import ExplicitModel, Material, solve
-from gearrom.fe.explicit.meshes import rectangle_q4
-
-L, H = 0.25, 0.01
-BL = 1.8751040687
 
 
 @pytest.fixture(scope="module", params=["reduced", "full"])
 def run(request):
-    mat = Material()
-    nodes, elements = rectangle_q4(L, H, 100, 6, y0=-H / 2)
-    e_plane = mat.E / (1 - mat.nu ** 2)
-    f_eb = BL ** 2 / (2 * np.pi * L ** 2) * np.sqrt(e_plane * H ** 2 / 12 / mat.rho)
-    x = nodes[:, 0] / L
-    shape = (np.cosh(BL * x) - np.cos(BL * x)
-             - (np.cosh(BL) + np.cos(BL)) / (np.sinh(BL) + np.sin(BL)) * (np.sinh(BL * x) - np.sin(BL * x)))
-    v0 = np.zeros_like(nodes)
-    v0[:, 1] = 0.5 * shape / shape.max()
-    clamp = np.nonzero(nodes[:, 0] < 1e-12)[0]
-    model = ExplicitModel(nodes, elements, mat, thickness=0.01, node_sets={"clamp": clamp},
+    nodes, elements, clamp, tip, v0, f_eb = cantilever_strip(100, 6)
+    model = ExplicitModel(nodes, elements, Material(), thickness=0.01, node_sets={"clamp": clamp},
                           fixed={"clamp": (0, 1)}, initial_velocity=v0, hourglass_stiffness=0.05,
                           integration=request.param)
-    tip = int(np.argmin(np.abs(nodes[:, 0] - L) + np.abs(nodes[:, 1])))
     res = solve(model, 2.2 / f_eb, sample_period=1 / f_eb / 400, probes=[tip])
     return res, f_eb, request.param
 

@@ -59,6 +59,28 @@ def _bar_impact(nodes, elements, length, thickness):
     return res, duration, v_str[-1], v_hit[-1]
 
 
+def _block_on_base(base, base_el, p_total, vel_x, contact, **model_kw):
+    """A Q4 block (0.02 x 0.01 m) 1 um above a fixed base, sliding at ``vel_x`` and pressed by ``p_total``
+    (ramped over 1 ms) on its top: (model, block node ids)."""
+    blk, blk_el = rectangle_q4(0.02, 0.01, 8, 4, y0=1e-6)
+    nb = base.shape[0]
+    nodes = np.vstack([base, blk])
+    elements = np.vstack([base_el, blk_el + nb])
+    segs = boundary_segments(base_el)
+    master = segs[np.abs(base[segs].mean(axis=1)[:, 1]) < 1e-12]
+    bottom = nb + np.nonzero(blk[:, 1] < 2e-6)[0]
+    top = nb + np.nonzero(blk[:, 1] > 0.01)[0]
+    block = nb + np.arange(blk.shape[0])
+    vel = np.zeros_like(nodes)
+    vel[block, 0] = vel_x
+    load = NodalLoad("top", (0.0, -p_total / top.size), times=(0.0, 1e-3), factors=(0.0, 1.0))
+    model = ExplicitModel(nodes, elements, model_kw.pop("mat", Material()), thickness=0.01,
+                          node_sets={"base": np.arange(nb), "bottom": bottom, "top": top},
+                          surfaces={"base_top": master}, fixed={"base": (0, 1)}, loads=(load,),
+                          contacts=(contact,), initial_velocity=vel, **model_kw)
+    return model, block
+
+
 def test_bar_impact_q4():
     length = 0.1
     nodes, elements = rectangle_q4(length, 0.01, 100, 2)
@@ -78,26 +100,10 @@ def test_bar_impact_hex8():
 
 
 def test_coulomb_friction_deceleration():
-    mu, v0, p_total, thk = 0.1, 1.0, 20.0, 0.01
-    mat = Material()
+    mu, v0, p_total = 0.1, 1.0, 20.0
     base, base_el = rectangle_q4(0.2, 0.01, 40, 2, x0=-0.05, y0=-0.01)
-    blk, blk_el = rectangle_q4(0.02, 0.01, 8, 4, y0=1e-6)
-    nb = base.shape[0]
-    nodes = np.vstack([base, blk])
-    elements = np.vstack([base_el, blk_el + nb])
-    segs = boundary_segments(base_el)
-    master = segs[np.abs(base[segs].mean(axis=1)[:, 1]) < 1e-12]
-    bottom = nb + np.nonzero(blk[:, 1] < 2e-6)[0]
-    top = nb + np.nonzero(blk[:, 1] > 0.01)[0]
-    block = nb + np.arange(blk.shape[0])
-    vel = np.zeros_like(nodes)
-    vel[block, 0] = v0
-    load = NodalLoad("top", (0.0, -p_total / top.size), times=(0.0, 1e-3), factors=(0.0, 1.0))
-    model = ExplicitModel(nodes, elements, mat, thickness=thk,
-                          node_sets={"base": np.arange(nb), "bottom": bottom, "top": top},
-                          surfaces={"base_top": master}, fixed={"base": (0, 1)}, loads=(load,),
-                          contacts=(ContactPair("bottom", "base_top", mu=mu, penalty_scale=1.0),),
-                          initial_velocity=vel, hourglass_viscosity=0.05)
+    model, block = _block_on_base(base, base_el, p_total, v0, ContactPair("bottom", "base_top", mu=mu, penalty_scale=1.0),
+                                  hourglass_viscosity=0.05)
     res = solve(model, 8e-3, sample_period=5e-5, probes=block)
     mass = prepare(model)["mass"][block]
     vx = (mass * res.probe_v[:, :, 0]).sum(1) / mass.sum()
@@ -115,29 +121,13 @@ def test_sliding_across_unequal_segments_conserves_energy():
     next (a penalty per segment, k ~ A^2 / V, would create or destroy (k2 - k1) g^2 / 2 at each
     passage). Reference: energy conservation of the frictionless system; the balance error must stay
     below 1 % of the peak contact energy (the ROM-vs-FE reference gate)."""
-    thk, v0, p_total = 0.01, 1.0, 2.0e4
     base, base_el = rectangle_q4(0.2, 0.01, 40, 2, x0=-0.05, y0=-0.01)
     xs = np.unique(base[:, 0])
     widths = np.where(np.arange(xs.size - 1) % 2 == 0, 1.0, 3.0)
     new_x = -0.05 + np.concatenate([[0.0], np.cumsum(widths)]) / widths.sum() * 0.2
     base[:, 0] = np.interp(base[:, 0], xs, new_x)
-    blk, blk_el = rectangle_q4(0.02, 0.01, 8, 4, y0=1e-6)
-    nb = base.shape[0]
-    nodes = np.vstack([base, blk])
-    elements = np.vstack([base_el, blk_el + nb])
-    segs = boundary_segments(base_el)
-    master = segs[np.abs(base[segs].mean(axis=1)[:, 1]) < 1e-12]
-    bottom = nb + np.nonzero(blk[:, 1] < 2e-6)[0]
-    top = nb + np.nonzero(blk[:, 1] > 0.01)[0]
-    block = nb + np.arange(blk.shape[0])
-    vel = np.zeros_like(nodes)
-    vel[block, 0] = v0
-    load = NodalLoad("top", (0.0, -p_total / top.size), times=(0.0, 1e-3), factors=(0.0, 1.0))
-    model = ExplicitModel(nodes, elements, Material(), thickness=thk,
-                          node_sets={"base": np.arange(nb), "bottom": bottom, "top": top},
-                          surfaces={"base_top": master}, fixed={"base": (0, 1)}, loads=(load,),
-                          contacts=(ContactPair("bottom", "base_top", penalty_scale=0.3),),
-                          initial_velocity=vel, integration="full")
+    model, _ = _block_on_base(base, base_el, 2.0e4, 1.0, ContactPair("bottom", "base_top", penalty_scale=0.3),
+                              integration="full")
     res = solve(model, 8e-3, sample_period=2e-5)
     peak = res.energy("contact").max()
     assert peak > 0

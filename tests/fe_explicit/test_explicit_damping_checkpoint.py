@@ -18,30 +18,20 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from cantilever import cantilever_strip
 
 from gearrom.errors import ConfigError, RunInterrupted
 from gearrom.fe.explicit import ExplicitModel, Material, RigidReference, solve
-from gearrom.fe.explicit.meshes import annulus_q4, rectangle_q4
+from gearrom.fe.explicit.meshes import annulus_q4
 
-L, H = 0.25, 0.01
-BL = 1.8751040687
 MAT = Material()
 
 
 def _cantilever(alpha: float) -> tuple[ExplicitModel, int, float]:
-    nodes, elements = rectangle_q4(L, H, 60, 4, y0=-H / 2)
-    e_plane = MAT.E / (1 - MAT.nu ** 2)
-    f_eb = BL ** 2 / (2 * np.pi * L ** 2) * np.sqrt(e_plane * H ** 2 / 12 / MAT.rho)
-    x = nodes[:, 0] / L
-    shape = (np.cosh(BL * x) - np.cos(BL * x)
-             - (np.cosh(BL) + np.cos(BL)) / (np.sinh(BL) + np.sin(BL)) * (np.sinh(BL * x) - np.sin(BL * x)))
-    v0 = np.zeros_like(nodes)
-    v0[:, 1] = 0.5 * shape / shape.max()
-    clamp = np.nonzero(nodes[:, 0] < 1e-12)[0]
+    nodes, elements, clamp, tip, v0, f_eb = cantilever_strip(60, 4, MAT)
     model = ExplicitModel(nodes, elements, MAT, thickness=0.01, node_sets={"clamp": clamp},
                           references=(RigidReference("clamp", speed=0.0, center=(0.0, 0.0)),),
                           initial_velocity=v0, relative_damping=alpha)
-    tip = int(np.argmin(np.abs(nodes[:, 0] - L) + np.abs(nodes[:, 1])))
     return model, tip, f_eb
 
 

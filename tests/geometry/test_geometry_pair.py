@@ -5,7 +5,7 @@ import math
 
 import pytest
 
-from gearrom.geometry.gear import Gear, RackTool
+from gearrom.geometry.gear import Gear
 from gearrom.geometry.pair import GearPair, inv, inv_inverse
 
 MM = 1e-3

@@ -16,7 +16,7 @@ from gearrom.errors import MeasurementError
 from gearrom.signal import ReadSettings, TESettings, process_measurement
 from gearrom.signal.daq import DAQSettings
 from gearrom.signal.quadrature import QuadratureDecoder, select_run
-from quad_synth import RB1, RPM, TE_AMP, Z1, te_truth, write_stage
+from quad_synth import RB1, RPM, TE_AMP, te_truth, write_stage
 
 
 def _decode(a, b, k=4, edge_time="sample"):
