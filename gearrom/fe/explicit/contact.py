@@ -283,21 +283,55 @@ def facet_closest(x, segs, s, n):
 
 
 @njit(cache=True, fastmath=True)
-def _signed_gap_3d(x, segs, g_rad, seg_open, cand, ncand, i, n):
+def _signed_gap_3d(x, segs, g_rad, seg_open, cand, ncand, i, n, cutoff=1e300):
     """Nearest master feature of slave ``i`` (node ``n``) among its candidates.
 
     Returns (facet or -1, xi, eta, signed gap (negative = penetration), contact normal): the distance to the
     closest feature, negative on the body side of that facet; beyond an open surface edge the normal
     distance to the facet plane while the tangential overshoot is at most ``OPEN_TOL`` facet radii, and
     facet -1 farther out (see :func:`contact_forces_3d`).
+
+    A bilinear facet lies in the convex hull of its corners, so its distance from the node is at least
+    (distance to the corners' centroid) - (largest corner distance from that centroid). Candidates are
+    taken in the order of that bound and those whose bound exceeds the best distance found are skipped
+    (no Newton projection); facet -1 is returned at once when every bound reaches ``cutoff`` (m).
     """
+    K = ncand[i]
+    lbs = np.empty(K)
+    order = np.empty(K, np.int64)
+    lbmin = 1e300
+    for m in range(K):
+        s = cand[i, m]
+        c0 = 0.0; c1 = 0.0; c2 = 0.0
+        for q in range(4):
+            nd = segs[s, q]
+            c0 += x[nd, 0]; c1 += x[nd, 1]; c2 += x[nd, 2]
+        c0 *= 0.25; c1 *= 0.25; c2 *= 0.25
+        rad2 = 0.0
+        for q in range(4):
+            nd = segs[s, q]
+            e0 = x[nd, 0] - c0; e1 = x[nd, 1] - c1; e2 = x[nd, 2] - c2
+            rad2 = max(rad2, e0 * e0 + e1 * e1 + e2 * e2)
+        d0 = x[n, 0] - c0; d1 = x[n, 1] - c1; d2 = x[n, 2] - c2
+        lb = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2) - math.sqrt(rad2)
+        # insertion into the sorted order (K is small)
+        j = m
+        while j > 0 and lbs[j - 1] > lb:
+            lbs[j] = lbs[j - 1]; order[j] = order[j - 1]
+            j -= 1
+        lbs[j] = lb; order[j] = m
+        lbmin = min(lbmin, lb)
+    if K == 0 or lbmin >= cutoff:
+        return -1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     best = -1
     bd = 0.0
     bin_ = False
     bxi = 0.0; beta = 0.0
     bedge = -1
-    for m in range(ncand[i]):
-        s = cand[i, m]
+    for r in range(K):
+        if best >= 0 and lbs[r] > bd * (1 + 1e-12):
+            break                    # every remaining facet is farther than the best one
+        s = cand[i, order[r]]
         xi, eta, d, inside, edge = facet_closest(x, segs, s, n)
         if best < 0 or d < bd * (1 - 1e-12) or (d <= bd * (1 + 1e-12) and inside and not bin_):
             best = s; bd = d; bin_ = inside; bxi = xi; beta = eta; bedge = edge
@@ -354,6 +388,9 @@ def contact_forces_3d(x, v, slaves, s_pair, segs, g_k, g_rad, cand, ncand, p_mu,
     """
     epot = 0.0
     pfric = 0.0
+    g_rad_max = 0.0
+    for s in range(g_rad.shape[0]):
+        g_rad_max = max(g_rad_max, g_rad[s])
     for i in range(slaves.shape[0]):
         gap[i] = 0.0
         if ncand[i] == 0:
@@ -361,7 +398,9 @@ def contact_forces_3d(x, v, slaves, s_pair, segs, g_k, g_rad, cand, ncand, p_mu,
         n = slaves[i]
         p = s_pair[i]
         depth = p_depth[p]
-        best, bxi, beta, bg, bn0, bn1, bn2 = _signed_gap_3d(x, segs, g_rad, seg_open, cand, ncand, i, n)
+        # no contact unless some facet is within the capture depth (+ the open-edge allowance)
+        cutoff = depth + OPEN_TOL * g_rad_max
+        best, bxi, beta, bg, bn0, bn1, bn2 = _signed_gap_3d(x, segs, g_rad, seg_open, cand, ncand, i, n, cutoff)
         if best < 0 or bg >= 0.0 or -bg >= depth:
             continue   # no facet, outside the master body, or deeper than the capture depth
         N0 = 0.25 * (1 - bxi) * (1 - beta)
