@@ -46,6 +46,12 @@ HERE = Path(__file__).resolve().parent
 log = logging.getLogger("run_explicit_spur")
 
 
+def _reference_meshes(pair, cal: dict):
+    from run_ringdown import reference_meshes
+
+    return reference_meshes(pair, cal["mesh"])
+
+
 def _damping() -> dict:
     path = HERE / "ringdown_spur.json"
     if not path.is_file():
@@ -60,22 +66,25 @@ def main(rpm: float, outline: float = 0.15e-3, body: float = 1.5e-3, periods: in
          ramp: float = 0.3e-3, mass_scaling_dt: float = 0.0, integration: str = "reduced",
          parallel: bool = False, start: str = "gap", wall_limit: float | None = None) -> Path:
     pair = load_config("thesis-spur").pair
-    meshes = [gear_quad_mesh(pair, i, outline, body) for i in (0, 1)]
     f_mesh = rpm / 60 * pair.z[0]
     extra = {}
     if start == "loaded":
         cal = _damping()
+        meshes = _reference_meshes(pair, cal)
+        outline, body, mass_scaling_dt = (cal["mesh"][k] for k in ("outline_size_m", "body_size_m", "mass_scaling_dt_s"))
         alpha, zeta, f_mode = cal["alpha_r_per_s"], cal["zeta_target"], cal["runs"][-1]["frequency_Hz"]
         tau = 1.0 / (zeta * 2 * math.pi * f_mode)
         if settle_periods is None:
             settle_periods = math.ceil(4 * tau * f_mesh)
         ramp = 0.0
         setup = GearPairSetup(rpm_in=rpm, torque_out=120.0, mu=0.0, integration=integration, start="loaded",
-                              relative_damping=alpha)
+                              relative_damping=alpha, mass_scaling_dt=mass_scaling_dt)
         stem = HERE / f"spur_{int(rpm)}rpm_loaded"
         extra = {"relative_damping_per_s": alpha, "zeta_target": zeta, "zeta_measured": cal["zeta_measured"],
-                 "mesh_mode_Hz": f_mode, "decay_time_s": tau}
+                 "mesh_mode_Hz": f_mode, "decay_time_s": tau, "outline_sag_um": cal["mesh"]["sag_m"] * 1e6,
+                 "inertia_out_kgm2": None, "inertia_in_kgm2": None}
     else:
+        meshes = [gear_quad_mesh(pair, i, outline, body) for i in (0, 1)]
         settle_periods = 1 if settle_periods is None else settle_periods
         setup = GearPairSetup(rpm_in=rpm, torque_out=120.0, torque_ramp_time=ramp, mu=0.0,
                               mass_scaling_dt=mass_scaling_dt, integration=integration)
@@ -93,6 +102,9 @@ def main(rpm: float, outline: float = 0.15e-3, body: float = 1.5e-3, periods: in
         sys.exit(3)
     wall = time.perf_counter() - t0
     t_start = ramp + settle_periods / f_mesh
+    for key in ("inertia_out_kgm2", "inertia_in_kgm2"):
+        if key in extra:
+            extra[key] = res.meta[key]
     np.savez_compressed(stem.with_suffix(".npz"), t_s=res.t, te_m=te, theta_rad=res.theta,
                         **{f"energy_{k}": res.energies[:, j] for j, k in enumerate(ENERGY_NAMES)})
     meta = {

@@ -35,6 +35,17 @@ from gearrom.fe.explicit.gearpair import (GearPairSetup, gear_pair_model, loaded
 HERE = Path(__file__).resolve().parent
 log = logging.getLogger("ringdown")
 
+#: the reference model's discretization, shared by the ring-down and the reference runs (recorded in
+#: ringdown_spur.json, read by run_explicit_spur.py): 0.15 mm outline refined above the base circle to
+#: chords within SAG of the profile (tip-edge roundings), 1.5 mm body, selective mass scaling of the
+#: refined outline nodes up to the step of the unrefined 0.15 mm mesh
+REFERENCE_MESH = {"outline_size_m": 0.15e-3, "body_size_m": 1.5e-3, "sag_m": 1e-6, "mass_scaling_dt_s": 3.0e-9}
+
+
+def reference_meshes(pair, mesh: dict = REFERENCE_MESH):
+    """The two gear meshes of the reference model."""
+    return [gear_quad_mesh(pair, i, mesh["outline_size_m"], mesh["body_size_m"], sag=mesh["sag_m"]) for i in (0, 1)]
+
 
 def fit_ringdown(t: np.ndarray, y: np.ndarray) -> dict:
     """Least-squares damped sinusoid; returns frequency (Hz), damping ratio and the fit's RMS residual."""
@@ -65,14 +76,15 @@ def fit_ringdown(t: np.ndarray, y: np.ndarray) -> dict:
 
 
 def ringdown(pair, meshes, alpha: float, duration: float, relaxed=None, torque0: float = 120.0,
-             torque1: float = 132.0, skip: float = 0.05e-3):
-    setup = GearPairSetup(rpm_in=1e-4, torque_out=torque1, integration="full", start="loaded", relative_damping=alpha)
+             torque1: float = 132.0, skip: float = 0.05e-3, parallel: bool = True):
+    setup = GearPairSetup(rpm_in=1e-4, torque_out=torque1, integration="full", start="loaded", relative_damping=alpha,
+                          mass_scaling_dt=REFERENCE_MESH["mass_scaling_dt_s"])
     model, info = gear_pair_model(pair, meshes, setup)
     if relaxed is None:
         relaxed = relaxed_state(model, torque0)
     run = loaded_model(model, info, setup, relaxed)
     t0 = time.perf_counter()
-    res = solve(run, duration, 2e-6, parallel=True, chunks=8)
+    res = solve(run, duration, 2e-6, parallel=parallel, chunks=8)
     te = transmission_error(res, info["rb"], info["clearance_angle"])
     w = res.t >= skip
     fit = fit_ringdown(res.t[w], te[w])
@@ -83,13 +95,13 @@ def ringdown(pair, meshes, alpha: float, duration: float, relaxed=None, torque0:
     return fit, relaxed, res.t, te
 
 
-def main(zeta: float, alpha0: float, duration: float) -> Path:
+def main(zeta: float, alpha0: float, duration: float, parallel: bool = True) -> Path:
     pair = load_config("thesis-spur").pair
-    meshes = [gear_quad_mesh(pair, i, 0.15e-3, 1.5e-3) for i in (0, 1)]
-    fit0, relaxed, t_a, te_a = ringdown(pair, meshes, alpha0, duration)
+    meshes = reference_meshes(pair)
+    fit0, relaxed, t_a, te_a = ringdown(pair, meshes, alpha0, duration, parallel=parallel)
     alpha1 = alpha0 * zeta / fit0["zeta"]
-    fit1, _, t_b, te_b = ringdown(pair, meshes, alpha1, duration, relaxed)
-    out = {"config": "thesis-spur", "integration": "full", "outline_size_mm": 0.15, "body_size_mm": 1.5,
+    fit1, _, t_b, te_b = ringdown(pair, meshes, alpha1, duration, relaxed, parallel=parallel)
+    out = {"config": "thesis-spur", "integration": "full", "mesh": REFERENCE_MESH,
            "torque_step_Nm": [120.0, 132.0], "zeta_target": zeta, "runs": [fit0, fit1],
            "alpha_r_per_s": alpha1, "zeta_measured": fit1["zeta"],
            "within_10_percent": bool(abs(fit1["zeta"] / zeta - 1) < 0.1),
@@ -106,6 +118,7 @@ if __name__ == "__main__":
     ap.add_argument("--zeta", type=float, default=0.02, help="target damping ratio at the mesh mode")
     ap.add_argument("--alpha0", type=float, default=2e4, help="relative damping of the first run, 1/s")
     ap.add_argument("--duration-ms", type=float, default=0.8)
+    ap.add_argument("--serial", action="store_true", help="one thread (leaves the other core to another job)")
     a = ap.parse_args()
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
-    main(a.zeta, a.alpha0, a.duration_ms * 1e-3)
+    main(a.zeta, a.alpha0, a.duration_ms * 1e-3, parallel=not a.serial)

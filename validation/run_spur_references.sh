@@ -1,13 +1,16 @@
 #!/bin/sh
-# The spur ROM-vs-FE references (loaded start, calibrated damping) at 2000 and 1250 rpm, one after the
-# other on both cores. Each run checkpoints into validation/checkpoints/ and resumes when started again;
-# progress, ETA and the energy balance go to validation/checkpoints/spur_<rpm>rpm_loaded.log.
-# Needs validation/ringdown_spur.json (python validation/run_ringdown.py).
+# The spur ROM-vs-FE references (loaded start, calibrated damping) at 2000 and 1250 rpm, side by side,
+# one core each (the serial loop: the threaded loop synchronizes at every element colour, which two
+# jobs on two cores turn into waiting). Each run checkpoints into validation/checkpoints/ and resumes
+# when started again; progress, ETA and the energy balance go to
+# validation/checkpoints/spur_<rpm>rpm_loaded.log. Needs validation/ringdown_spur.json
+# (python validation/run_ringdown.py).
 set -e
 cd "$(dirname "$0")/.."
 mkdir -p validation/checkpoints
 for rpm in 2000 1250; do
     [ -f "validation/spur_${rpm}rpm_loaded.json" ] && continue
-    python validation/run_explicit_spur.py "$rpm" --start loaded --integration full --parallel "$@" \
-        >> "validation/checkpoints/spur_${rpm}rpm_loaded.log" 2>&1
+    python validation/run_explicit_spur.py "$rpm" --start loaded --integration full "$@" \
+        >> "validation/checkpoints/spur_${rpm}rpm_loaded.log" 2>&1 &
 done
+wait

@@ -394,6 +394,8 @@ def validate(config: str, rpms, fe_dir: str | Path | None = None, fresh: bool = 
             cache[key] = output_inertia(pair, key[0] * 1e-3, key[1] * 1e-3, None if key[2] is None else key[2] * 1e-3,
                                         project=on_profile and not helical)
         j2, j_label = cache[key]
+        if "inertia_out_kgm2" in fe.meta:           # the run's own (mass scaling included)
+            j2, j_label = float(fe.meta["inertia_out_kgm2"]), "sum m r^2 of the FE output gear's nodal masses (the run's)"
         kin = None
         if facets and not on_profile:
             kin = facet_kinematic_te(pair, ex, torque, key[0] * 1e-3, key[1] * 1e-3,

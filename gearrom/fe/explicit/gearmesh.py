@@ -34,12 +34,40 @@ def _closed_outline(pair, i: int, density: int = 1) -> np.ndarray:
     return np.vstack(parts)
 
 
-def _resample_closed(poly: np.ndarray, h: float) -> np.ndarray:
+def _resample_closed(poly: np.ndarray, h: float, sag: float | None = None, h_min: float | None = None,
+                     r_refine: float = 0.0) -> np.ndarray:
+    """Points along the closed polyline ``poly`` at spacing ``h``, or finer where it curves.
+
+    With ``sag`` (m) the spacing is ``min(h, 2 sqrt(8 sag / kappa))`` (not below ``h_min``): after the
+    later halving of every segment, the chords of an arc of curvature kappa deviate from it by at most
+    ``sag``. The curvature comes from the turning angle at each polyline vertex, and the spacing is
+    the smallest over +-h along the outline, so that the refinement starts ahead of a rounded corner.
+    Only vertices at radius >= ``r_refine`` (m, from the origin) are refined.
+    """
     closed = np.vstack([poly, poly[:1]])
     seg = np.hypot(*np.diff(closed, axis=0).T)
     arc = np.concatenate([[0.0], np.cumsum(seg)])
-    n = max(8, int(round(arc[-1] / h)))
-    t = np.linspace(0.0, arc[-1], n, endpoint=False)
+    if sag is None:
+        n = max(8, int(round(arc[-1] / h)))
+        t = np.linspace(0.0, arc[-1], n, endpoint=False)
+    else:
+        d = np.diff(closed, axis=0)
+        ang = np.arctan2(d[:, 1], d[:, 0])
+        turn = np.abs(np.angle(np.exp(1j * (ang - np.roll(ang, 1)))))          # at vertex k (start of segment k)
+        kappa = turn / np.maximum(0.5 * (seg + np.roll(seg, 1)), 1e-300)
+        spacing = np.clip(2.0 * np.sqrt(8.0 * sag / np.maximum(kappa, 1e-300)), h_min or 0.25 * h, h)
+        spacing[np.hypot(*poly.T) < r_refine] = h
+        # smallest spacing within +-h of arc length (periodic)
+        s0 = arc[:-1]
+        total = arc[-1]
+        ext_s = np.concatenate([s0 - total, s0, s0 + total])
+        ext_sp = np.tile(spacing, 3)
+        lo = np.searchsorted(ext_s, s0 + total - h)
+        hi = np.searchsorted(ext_s, s0 + total + h)
+        csp = np.array([ext_sp[a:b].min() for a, b in zip(lo, hi)])
+        dens = np.concatenate([[0.0], np.cumsum(seg / csp)])                    # nodes per arc length
+        n = max(8, int(round(dens[-1])))
+        t = np.interp(np.arange(n) * dens[-1] / n, dens, arc)
     return np.column_stack([np.interp(t, arc, closed[:, 0]), np.interp(t, arc, closed[:, 1])])
 
 
@@ -67,8 +95,14 @@ def project_onto(points: np.ndarray, poly: np.ndarray) -> np.ndarray:
 
 
 def gear_quad_mesh(pair, i: int, outline_size: float, body_size: float | None = None,
-                   grading: float = 2e-3, project: bool = True):
+                   grading: float = 2e-3, project: bool = True, sag: float | None = None):
     """Q4 mesh of gear ``i`` of ``pair``; ``project`` puts the outline nodes on the generated profile.
+
+    ``sag`` (m): refine the outline above the base circle where it curves (flanks, tip-edge roundings) so
+    that its chords stay within ``sag`` of the profile (:func:`_resample_closed`; at most 4 times finer
+    than ``outline_size``); the fillets below the base circle, which never touch, keep ``outline_size``.
+    The smaller elements there lower the stable step unless mass scaling lifts it
+    (:class:`gearrom.fe.explicit.model.ExplicitModel`).
 
     Returns
     -------
@@ -81,7 +115,11 @@ def gear_quad_mesh(pair, i: int, outline_size: float, body_size: float | None = 
     body_size = body_size or outline_size
     if not 0 < outline_size <= body_size:
         raise MeshError(f"gear_quad_mesh needs 0 < outline_size <= body_size, got {outline_size}, {body_size}")
-    outline = _resample_closed(_closed_outline(pair, i), 2 * outline_size)   # halved below
+    if sag is None:
+        outline = _resample_closed(_closed_outline(pair, i), 2 * outline_size)   # halved below
+    else:
+        outline = _resample_closed(_closed_outline(pair, i, density=10), 2 * outline_size, sag,
+                                   r_refine=pair.rb[i])
     last = None
     for algo, blossom, smooth in _ATTEMPTS:   # gmsh quads are occasionally degenerate at the root
         mesh = _mesh(pair, i, outline, outline_size, body_size, grading, algo, blossom, smooth)

@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from gearrom.errors import ConfigError, MeshError
-from gearrom.fe.explicit.driver import solve
+from gearrom.fe.explicit.driver import prepare, solve
 from gearrom.fe.explicit.model import ContactPair, ExplicitModel, Material, RigidReference, boundary_segments
 from gearrom.fe.explicit.result import ExplicitResult
 
@@ -377,8 +377,15 @@ def run_gear_pair(pair, meshes, setup: GearPairSetup, t_end: float, sample_perio
                  (info["rb"][0] * relaxed[1][0] + info["rb"][1] * (relaxed[1][1] - info["clearance_angle"])) * 1e6,
                  relaxed[2])
         model = loaded_model(model, info, setup, relaxed)
-    res = solve(model, t_end, sample_period, **solve_kw)
+    d = prepare(model, solve_kw.pop("safety", 0.9))
+    res = solve(model, t_end, sample_period, prepared=d, **solve_kw)
     te = transmission_error(res, info["rb"], info["clearance_angle"])
+    # polar inertia of each gear about its axis with the mass the run used (selective mass scaling included)
+    off = info["n_gear1"]
+    c2 = np.asarray(model.references[1].center, float)
+    j1 = float(np.sum(d["mass"][:off] * np.sum(model.nodes[:off] ** 2, axis=1)) * 1.0)
+    j2 = float(np.sum(d["mass"][off:] * np.sum((model.nodes[off:] - c2) ** 2, axis=1)))
     res.meta.update(rpm_in=setup.rpm_in, torque_out_Nm=setup.torque_out, mu=setup.mu, start=setup.start,
-                    flank_spacing_m=info["flank_spacing_m"], penalty_scale=setup.penalty_scale)
+                    flank_spacing_m=info["flank_spacing_m"], penalty_scale=setup.penalty_scale,
+                    inertia_in_kgm2=j1, inertia_out_kgm2=j2)
     return res, te, info
