@@ -78,10 +78,12 @@ def main(rpm: float, outline: float = 0.15e-3, body: float = 1.5e-3, periods: in
             settle_periods = math.ceil(4 * tau * f_mesh)
         ramp = 0.0
         setup = GearPairSetup(rpm_in=rpm, torque_out=120.0, mu=0.0, integration=integration, start="loaded",
-                              relative_damping=alpha, mass_scaling_dt=mass_scaling_dt)
+                              relative_damping=alpha, mass_scaling_dt=mass_scaling_dt,
+                              penalty_scale=cal["mesh"]["penalty_scale"])
         stem = HERE / f"spur_{int(rpm)}rpm_loaded"
         extra = {"relative_damping_per_s": alpha, "zeta_target": zeta, "zeta_measured": cal["zeta_measured"],
                  "mesh_mode_Hz": f_mode, "decay_time_s": tau, "outline_sag_um": cal["mesh"]["sag_m"] * 1e6,
+                 "penalty_scale": cal["mesh"]["penalty_scale"],
                  "inertia_out_kgm2": None, "inertia_in_kgm2": None}
     else:
         meshes = [gear_quad_mesh(pair, i, outline, body) for i in (0, 1)]

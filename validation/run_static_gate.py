@@ -35,15 +35,18 @@ log = logging.getLogger("run_static_gate")
 
 
 def main(n: int = 16, torques=(60.0, 120.0), outline: float = 0.15e-3, body: float = 1.5e-3,
-         sag: float | None = None) -> Path:
+         sag: float | None = None, penalty: float = 0.3) -> Path:
     pair = load_config("thesis-spur").pair
     period = 2 * math.pi / pair.z[0]
     meshes = [gear_quad_mesh(pair, i, outline, body, sag=sag) for i in (0, 1)]
     out = OUT if sag is None else OUT.with_name(f"{OUT.stem}_sag{sag * 1e6:g}um.json")
+    if penalty != 0.3:
+        out = out.with_name(f"{out.stem}_penalty{penalty:g}.json")
     data = json.loads(out.read_text()) if out.is_file() else {}
     pts = data.setdefault("points", {})
     data.update(config="thesis-spur", integration="full", outline_size_mm=outline * 1e3, body_size_mm=body * 1e3,
-                outline_on_profile=True, outline_sag_um=None if sag is None else sag * 1e6, n_points=n,
+                outline_on_profile=True, outline_sag_um=None if sag is None else sag * 1e6, penalty_scale=penalty,
+                n_points=n,
                 definition="static TE (FE convention: zero at rigid first contact of the start position) at input "
                            "angle j * mesh_period / n_points from the FE start position")
     for t in torques:
@@ -51,7 +54,7 @@ def main(n: int = 16, torques=(60.0, 120.0), outline: float = 0.15e-3, body: flo
             key = f"{t:g}Nm/{j}"
             if key in pts:
                 continue
-            p = static_te(pair, meshes, j * period / n, torque=t, integration="full")
+            p = static_te(pair, meshes, j * period / n, torque=t, integration="full", penalty_scale=penalty)
             pts[key] = dict(p.to_dict(), load_average=os.getloadavg())
             out.write_text(json.dumps(data, indent=2, default=float) + "\n")
             log.info("%s: %.3f um", key, p.te * 1e6)
@@ -77,5 +80,6 @@ if __name__ == "__main__":
     ap.add_argument("--points", type=int, default=16)
     ap.add_argument("--torques", type=float, nargs="+", default=[60.0, 120.0])
     ap.add_argument("--sag-um", type=float, default=None, help="outline refined to chords within this of the profile")
+    ap.add_argument("--penalty", type=float, default=0.3, help="contact penalty scale (ContactPair.penalty_scale)")
     a = ap.parse_args()
-    main(a.points, tuple(a.torques), sag=None if a.sag_um is None else a.sag_um * 1e-6)
+    main(a.points, tuple(a.torques), sag=None if a.sag_um is None else a.sag_um * 1e-6, penalty=a.penalty)
