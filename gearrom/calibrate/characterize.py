@@ -121,13 +121,27 @@ def nearest_integer_order(run: RunData, f_hz: float, tol_orders: float) -> str |
     return " = ".join(names) or None
 
 
+#: peak-position tolerance in bins (1 / record length) of a Hann spectrum: the maximum of the 8x
+#: zero-padded spectrum locates an isolated line to a small fraction of a bin; leakage from a neighbour
+#: line moves it by up to about a quarter bin
+PEAK_TOL_BINS = 0.5
+
+
 def classify_peaks(runs: list[RunData], peaks: list[list[tuple[float, float]]]) -> list[dict]:
-    """Group peaks across runs: fixed_frequency, order_tracking or undetermined (see module docstring)."""
+    """Group peaks across runs: fixed_frequency, order_tracking or undetermined (see module docstring).
+
+    A peak at ``f`` in run a predicts ``f`` in run b if it is a fixed frequency and ``f f_b / f_a``
+    if it tracks the input speed (``f_a``, ``f_b``: the runs' measured input speeds). The
+    tolerance of each prediction is :data:`PEAK_TOL_BINS` bins of both records (the tracking
+    prediction carries run a's position error scaled by ``f_b / f_a``). Run b tells the two apart
+    when the predictions lie more than two tolerances apart; a run at a speed too close to run a's
+    does not count.
+    """
     out = []
     used = [set() for _ in runs]
     for a, (ra, pa) in enumerate(zip(runs, peaks)):
         fa_in = ra.rpm_in / 60
-        tol_fa = 1.5 / ra.duration_s
+        bin_a = 1.0 / ra.duration_s
         for i, (f, amp) in enumerate(pa):
             if i in used[a]:
                 continue
@@ -137,18 +151,20 @@ def classify_peaks(runs: list[RunData], peaks: list[list[tuple[float, float]]]) 
             for b, (rb, pb) in enumerate(zip(runs, peaks)):
                 if b == a:
                     continue
-                fb_in = rb.rpm_in / 60
-                tol_f = max(tol_fa, 1.5 / rb.duration_s)
-                if abs(f / fa_in * fb_in - f) <= 2 * tol_f:
+                scale = (rb.rpm_in / 60) / fa_in
+                tol_fix = PEAK_TOL_BINS * (bin_a + 1.0 / rb.duration_s)
+                tol_trk = PEAK_TOL_BINS * (scale * bin_a + 1.0 / rb.duration_s)
+                f_trk = f * scale
+                if abs(f_trk - f) <= tol_fix + tol_trk:
                     continue  # speeds too close for this line
                 diverse = True
-                for j, (g, amp_b) in enumerate(pb):
-                    if j in used[b]:
-                        continue
-                    if abs(g - f) <= tol_f:
-                        fixed.append((b, j, g, amp_b))
-                    elif abs(g / fb_in - f / fa_in) <= tol_f / fb_in:
-                        track.append((b, j, g, amp_b))
+                free = [(j, g, amp_b) for j, (g, amp_b) in enumerate(pb) if j not in used[b]]
+                near_fix = [(abs(g - f), j, g, amp_b) for j, g, amp_b in free if abs(g - f) <= tol_fix]
+                near_trk = [(abs(g - f_trk), j, g, amp_b) for j, g, amp_b in free if abs(g - f_trk) <= tol_trk]
+                if near_trk:
+                    track.append((b,) + min(near_trk)[1:])
+                if near_fix:
+                    fixed.append((b,) + min(near_fix)[1:])
             o_in = f / fa_in
             if track and len(track) >= len(fixed):
                 kind, members = "order_tracking", track
@@ -159,11 +175,18 @@ def classify_peaks(runs: list[RunData], peaks: list[list[tuple[float, float]]]) 
             for b, j, _, amp_b in members:
                 used[b].add(j)
                 amps.append(amp_b)
+            tol_o = PEAK_TOL_BINS / (ra.duration_s * fa_in)  # one bin in input orders
+            if kind == "order_tracking":  # the order from all runs' measured speeds, weighted by record length
+                w = [ra.duration_s] + [runs[b].duration_s for b, *_ in members]
+                o = [o_in] + [g / (runs[b].rpm_in / 60) for b, _, g, _ in members]
+                o_in = float(np.average(o, weights=w))
+                tol_o = min([tol_o] + [PEAK_TOL_BINS / (runs[b].duration_s * runs[b].rpm_in / 60) for b, *_ in members])
             item = {"frequency_hz": f, "order": o_in if kind == "order_tracking" else None,
                     "order_out": o_in / ra.mesh.ratio if kind == "order_tracking" else None,
                     "kind": kind, "amplitude_um": max(amps) / UM, "run": ra.name,
-                    "order_at_this_run": o_in, "runs_seen": 1 + len(members),
-                    "integer_order": nearest_integer_order(ra, f, 1.5 / (ra.duration_s * fa_in))}
+                    "order_at_this_run": f / fa_in, "runs_seen": 1 + len(members),
+                    "frequencies_hz": [f] + [g for _, _, g, _ in members],
+                    "integer_order": nearest_integer_order(ra, o_in * fa_in, tol_o)}
             if kind == "undetermined":
                 item["note"] = "seen at one speed only: a run at another speed tells fixed frequency from order"
             out.append(item)

@@ -181,6 +181,22 @@ def _size(effect: dict) -> tuple[float, str] | None:
     return None
 
 
+def _sigma(t: Trial) -> float | None:
+    """Standard deviation of the size of an accepted effect, um (see :func:`~gearrom.calibrate.fit.size_uncertainty`).
+
+    Amplitude of a cos/sin pair: the rms of the two components' deviations (Rayleigh scale); per-run
+    pairs: their mean over the runs, as the reported amplitude is their mean."""
+    if "sigma_size_um" in t.info:
+        return float(t.info["sigma_size_um"])
+    if t.info.get("sigma_um") is None:
+        return None
+    s = np.atleast_1d(np.asarray(t.info["sigma_um"], float))
+    if t.cand.name in ("eccentricity", "encoder_eccentricity") and s.size % 2 == 0:
+        pairs = np.sqrt(0.5 * (s[0::2] ** 2 + s[1::2] ** 2))
+        return float(np.sqrt(np.sum(pairs ** 2)) / pairs.size)
+    return float(s[0])
+
+
 def _assemble(ctx: Context, config, sim, D, accepted, steps, after) -> DiagnosisResult:
     models = ctx.models
     runs_json, traces, tables = [], [], []
@@ -222,6 +238,9 @@ def _assemble(ctx: Context, config, sim, D, accepted, steps, after) -> Diagnosis
         if sz is not None and tol is not None:
             e["within_tolerance"] = bool(sz[0] <= tol)
             e["drawing_tolerance_um"] = tol
+        sigma = _sigma(t)
+        if sz is not None and sigma is not None:
+            e["uncertainty_um"] = {sz[1]: sigma}
         effects.append(e)
         for rv in t.info.get("rivals", []):
             ambiguities.append({"chosen": f"{t.cand.name}/{t.cand.target}" if t.cand.target else t.cand.name,

@@ -13,8 +13,10 @@ channel's first edge):
   responds to it: real shaft motion on both channels, dynamic amplification near the modes.
 * ``pitch_error`` (target gear): one tooth displaced by ``deviation_um`` (single pitch deviations
   +f and -f on its two flanks' pitches; cumulative deviation f at that tooth). While the tooth
-  carries load it shifts the TE by ``deviation_um`` times its load share (the load-share window
-  of the nominal mesh table). ``tooth_index`` counts teeth from the gear angle 0 of the record.
+  is in mesh it changes the TE as the static equilibrium of all pairs in contact gives
+  (:mod:`gearrom.calibrate.tooth`: about ``deviation_um`` times its load share when small,
+  saturating when the tooth leaves contact). ``tooth_index`` counts teeth from the gear angle 0
+  of the record.
 * ``encoder_eccentricity`` (target ``input_encoder`` / ``output_encoder``): a once-per-rev angle
   error of the encoder alone, ``amplitude_um cos(theta + phase_deg)`` in the TE; measurement-only:
   no mesh modulation, no motion of the other shaft, no speed or load dependence.
@@ -26,8 +28,8 @@ channel's first edge):
 
 Plausibility limits come from the helical rig drawings (seed annex 11): F_r = 22 um, f_p = 5 um,
 F_p = 16 um, C_a = 8+-4 / 15+-5 um, C_b = 4+-3 um, f_Hbeta = +-11 um. Fits are bounded by the
-``bound`` below (a generous multiple of the tolerance, so that an out-of-tolerance part is still
-found) and flagged when they exceed the drawing ``tolerance``.
+``bound`` below (at least five times the tolerance: real parts are out of tolerance or damaged,
+so the fit is not capped at the drawing) and flagged when they exceed the drawing ``tolerance``.
 """
 from __future__ import annotations
 
@@ -73,25 +75,25 @@ ENCODERS = ("input_encoder", "output_encoder")
 
 LIBRARY: dict[str, EffectSpec] = {
     "eccentricity": EffectSpec(
-        "eccentricity", GEARS, "kinematic", {g: 11.0 for g in GEARS}, {g: 40.0 for g in GEARS},
+        "eccentricity", GEARS, "kinematic", {g: 11.0 for g in GEARS}, {g: 100.0 for g in GEARS},
         "once per revolution of the gear in the TE, with real motion of both shafts (mesh excitation) and "
         "GMF sidebands at that shaft's order; dynamically amplified near the drivetrain modes"),
     "pitch_error": EffectSpec(
-        "pitch_error", GEARS, "kinematic", {g: 16.0 for g in GEARS}, {g: 40.0 for g in GEARS},
+        "pitch_error", GEARS, "kinematic", {g: 16.0 for g in GEARS}, {g: 150.0 for g in GEARS},
         "impulsive once-per-revolution content of one gear: a broad comb of that shaft's orders"),
     "encoder_eccentricity": EffectSpec(
-        "encoder_eccentricity", ENCODERS, "measurement", {e: 20.0 for e in ENCODERS}, {e: 60.0 for e in ENCODERS},
+        "encoder_eccentricity", ENCODERS, "measurement", {e: 20.0 for e in ENCODERS}, {e: 150.0 for e in ENCODERS},
         "pure once-per-revolution of one channel, no sidebands, no motion of the other shaft, "
         "independent of speed and load"),
     "tip_relief": EffectSpec(
         "tip_relief", GEARS, "micro", {"input_gear": 12.0, "output_gear": 20.0},
-        {"input_gear": 30.0, "output_gear": 40.0},
+        {"input_gear": 60.0, "output_gear": 100.0},
         "GMF harmonics (load dependent) from the tooth entry/exit of the relieved gear"),
     "lead_crowning": EffectSpec(
-        "lead_crowning", ("",), "micro", {"": 7.0}, {"": 25.0},
+        "lead_crowning", ("",), "micro", {"": 7.0}, {"": 35.0},
         "GMF harmonics, weak for helical pairs with overlap ratio near an integer"),
     "helix_slope": EffectSpec(
-        "helix_slope", ("",), "micro", {"": 11.0}, {"": 30.0},
+        "helix_slope", ("",), "micro", {"": 11.0}, {"": 55.0},
         "GMF harmonics from the load concentrated at one face end"),
     "torsional_mode": EffectSpec(
         "torsional_mode", ("",), "rig", {}, {},
@@ -139,31 +141,6 @@ def check_name(name: str, target: str | None = None) -> EffectSpec:
 
 
 # ---------------------------------------------------------------- kinematic error patterns
-def load_share_window(load_share: np.ndarray, n_per_rev: int, z: int) -> np.ndarray:
-    """Load share of one tooth over its engagement, on a one-revolution grid of its gear (zero elsewhere).
-
-    Parameters
-    ----------
-    load_share : ndarray, shape (n_theta, n_pairs)
-        Load share of pair j over one mesh period (pair j = pair 0 shifted by j mesh periods).
-    n_per_rev : int
-        Grid points per revolution.
-    z : int
-        Teeth of the gear whose revolution the grid covers.
-    """
-    n_theta, n_pairs = load_share.shape
-    seq = load_share.T.ravel()  # one tooth from entering (pair 0) to leaving
-    u = np.arange(n_per_rev) / n_per_rev * z  # position in mesh periods
-    w = np.interp(u, np.arange(seq.size) / n_theta, seq, right=0.0)
-    return w
-
-
-def pitch_pattern(window: np.ndarray, z: int, tooth: int) -> np.ndarray:
-    """TE pattern (per um of displacement) of tooth ``tooth`` displaced, on the window's grid."""
-    n = window.size
-    return np.roll(window, int(round(tooth * n / z)))
-
-
 def sinusoid(n_per_rev: int) -> tuple[np.ndarray, np.ndarray]:
     """``cos(theta)`` and ``-sin(theta)`` on a one-revolution grid (basis of ``a cos(theta + phi)``)."""
     th = np.arange(n_per_rev) * 2 * math.pi / n_per_rev

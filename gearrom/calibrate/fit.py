@@ -4,9 +4,8 @@ Every candidate (library effect x target) predicts the three compared signals (t
 of every run from its parameters, through the run's model sensitivities (:mod:`.model`):
 
 * ``eccentricity``: ``Re(H(1) a e^{i phi} e^{i theta})`` of its shaft (te and both channels move);
-* ``pitch_error``: one displaced tooth, the load-share window of the nominal mesh as the kinematic
-  error pattern, fitted on the shaft orders below ``z / (2 eps_gamma)`` (at least 3) through ``H(q)``,
-  where the pattern does not depend on the load-sharing model; the tooth index is searched;
+* ``pitch_error``: one displaced tooth followed through its engagement, fitted on the pulse train it
+  leaves (:mod:`gearrom.calibrate.fit_tooth`);
 * ``encoder_eccentricity``: ``a cos(theta + phi)`` in te and in its own channel only;
 * ``tip_relief`` / ``lead_crowning`` / ``helix_slope`` and ``torsional_mode``: see
   :mod:`gearrom.calibrate.fit_mesh`.
@@ -29,7 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import lsq_linear
 
-from gearrom.calibrate.effects import LIBRARY, amp_phase, load_share_window
+from gearrom.calibrate.effects import LIBRARY, amp_phase
 from gearrom.calibrate.microgeom import MicroMods, SliceMicroModel
 from gearrom.calibrate.model import N_TABLE, RunModel
 from gearrom.calibrate.residual import detrend
@@ -139,7 +138,42 @@ def _linear_fit(cand, ctx: Context, cols: list, R: np.ndarray, lo, hi, info=None
     contrib_stacked = A @ x
     dss = float(R @ R - (R - contrib_stacked) @ (R - contrib_stacked))
     per_run = [sum(x[j] * cols[j][r] for j in range(len(cols))) for r in range(len(ctx.models))]
-    return Trial(cand, x, per_run, dss, len(x), dict(info or {}))
+    info = dict(info or {})
+    info["sigma_um"] = size_uncertainty(ctx, R - contrib_stacked, A)
+    return Trial(cand, x, per_run, dss, len(x), info)
+
+
+def correlation_factor(r: np.ndarray, max_lag: int = 4096) -> float:
+    """Samples per independent sample of a residual: ``1 + 2 sum rho_k`` up to the first lag with
+    ``rho_k <= 0`` (an oversampled or line-dominated residual is far from white noise)."""
+    r = np.asarray(r, float) - np.mean(r)
+    n = r.size
+    if n < 4 or not np.any(r):
+        return 1.0
+    f = np.fft.rfft(r, 2 * n)
+    ac = np.fft.irfft(f * np.conj(f))[:min(n, max_lag)]
+    rho = ac[1:] / ac[0]
+    stop = np.argmax(rho <= 0) if np.any(rho <= 0) else rho.size
+    return float(max(1.0, 1.0 + 2.0 * rho[:stop].sum()))
+
+
+def size_uncertainty(ctx: Context, rest: np.ndarray, A: np.ndarray) -> np.ndarray | float:
+    """Standard deviation of fitted parameters, um, from the stacked residual left by the fit.
+
+    ``sqrt(diag((A^T A)^-1) s^2 c)`` with ``s^2`` the residual variance per stacked sample and ``c``
+    the correlation factor of the TE residual of the first run (:func:`correlation_factor`): the
+    residual holds whatever the model still misses, so the figure covers that misfit, not only noise.
+    """
+    A2 = np.atleast_2d(np.asarray(A, float).T).T if np.ndim(A) == 1 else np.asarray(A, float)
+    n0 = ctx.models[0].run.t_s.size
+    s2 = float(rest @ rest) / max(rest.size - A2.shape[1], 1)
+    c = correlation_factor(rest[:n0])
+    try:
+        cov = np.linalg.pinv(A2.T @ A2) * s2 * c
+    except np.linalg.LinAlgError:
+        return np.full(A2.shape[1], np.nan) if np.ndim(A) > 1 else float("nan")
+    sig = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    return sig if np.ndim(A) > 1 else float(sig[0])
 
 
 def _dt(a: np.ndarray, axis: int = -1) -> np.ndarray:
@@ -226,65 +260,10 @@ class OncePerRev(Candidate):
         return [sum(x[j] * cols[j][r] for j in range(len(cols))) for r in range(len(ctx.models))]
 
 
-class PitchError(Candidate):
-    """One displaced tooth of a gear; the tooth index is searched."""
-
-    def _window(self, ctx: Context, torque: float) -> tuple[np.ndarray, int]:
-        # the load share of one tooth over its whole engagement: the thin-slice model has a column per
-        # engaged pair (the FE slice tables drop the pairs that entered before theta = 0)
-        ex = SliceMicroModel().excitation(ctx.pair, [torque], ctx.micro_nominal)
-        z = ctx.pair.z[0 if self.target == "input_gear" else 1]
-        return load_share_window(ex.load_share[0], N_TABLE, z), z
-
-    def _all_cols(self, ctx: Context) -> tuple[list, int]:
-        shaft = _shaft(self.target)
-        per_run = []
-        z = None
-        for m in ctx.models:
-            w, z = self._window(ctx, m.run.torque_out_Nm)
-            E = 2 * np.fft.rfft(w) / w.size
-            orders, H = m.H[shaft]
-            # only the low orders, where the pattern is set by the area under it (deviation x one pitch) and
-            # not by the load-sharing model: another model of how the neighbours share the displaced tooth's
-            # error (e.g. a smoothing over eps_gamma pitches) changes the orders above z / (2 eps_gamma)
-            q_max = max(3, int(z / (2.0 * ctx.pair.eps_gamma)))
-            keep = orders <= q_max
-            orders, H = orders[keep], H[:, keep]
-            G = H * E[orders][None, :] * UM  # (3, Q)
-            th = _theta(m, shaft)
-            B = np.exp(1j * np.outer(th, orders))  # (n, Q)
-            D = np.exp(-1j * np.outer(orders, 2 * np.pi * np.arange(z) / z))  # (Q, z)
-            per_run.append(_dt(np.stack([(B @ (G[k][:, None] * D)).real for k in range(3)]), axis=1))  # (3, n, z)
-        return per_run, z
-
-    def fit(self, ctx, R):
-        per_run, z = self._all_cols(ctx)
-        A = np.stack([ctx.stack([p[:, :, k] for p in per_run]) for k in range(z)], axis=1)
-        num, den = A.T @ R, np.einsum("ij,ij->j", A, A)
-        x = np.clip(num / np.maximum(den, 1e-300), -self.bound, self.bound)
-        gain = 2 * x * num - x * x * den
-        k = int(np.argmax(gain))
-        contrib = [x[k] * p[:, :, k] for p in per_run]
-        return Trial(self, np.array([x[k]]), contrib, float(gain[k]), 2, {"tooth_index": k, "z": z,
-                                                                            "window": per_run})
-
-    def linear_columns(self, ctx, info) -> tuple[list, float, float]:
-        """The column of the selected tooth (per-run list) and bounds for a joint linear refit."""
-        k = info["tooth_index"]
-        return [[p[:, :, k] for p in info["window"]]], np.array([-self.bound]), np.array([self.bound])
-
-    def report(self, x, info):
-        return {"tooth_index": int(info["tooth_index"]), "deviation_um": float(x[0])}
-
-    def changes(self, x, info, ctx, run: int = 0):
-        w, z = self._window(ctx, ctx.models[0].run.torque_out_Nm)
-        tab = float(x[0]) * UM * np.roll(w, int(round(info["tooth_index"] * N_TABLE / z)))
-        return {"kinematic_in" if _shaft(self.target) == "input" else "kinematic_out": tab - tab.mean()}
-
-
 def make_candidates(ctx: Context) -> list[Candidate]:
     """All candidates allowed by the settings and the simulator."""
     from gearrom.calibrate.fit_mesh import Micro, RigMode
+    from gearrom.calibrate.fit_tooth import PitchError
 
     names = ctx.s.candidates or tuple(LIBRARY)
     out: list[Candidate] = []

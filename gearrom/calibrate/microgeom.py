@@ -123,20 +123,8 @@ class SliceMicroModel:
         if tq.ndim != 1 or np.any(tq <= 0) or np.any(np.diff(tq) <= 0):
             raise CalibrationError(f"SliceMicroModel: torques_Nm must be positive and increasing, got {tq}")
         z1 = pair.z[0]
-        g = pair.g_alpha
-        b = pair.face_width
-        tb = math.tan(pair.beta_b)
-        theta = np.arange(self.n_theta) * (2 * math.pi / z1) / self.n_theta
-        n_pairs = int(math.ceil(pair.eps_alpha + pair.eps_beta)) + 1
-        y = (np.arange(self.n_slices) + 0.5) * b / self.n_slices
-        s = (pair.rb[0] * theta[:, None, None] + pair.pb_t * np.arange(n_pairs)[None, :, None]
-             - y[None, None, :] * tb)  # (n_theta, n_pairs, n_slices)
-        inside = (s >= 0) & (s <= g)
-        f_min = _shape_min(pair.eps_alpha)
-        u = np.clip(s / g, 0, 1)
-        k_sl = np.where(inside, iso_single_stiffness(pair) * (f_min + (1 - f_min) * 4 * u * (1 - u)) * (b / self.n_slices),
-                        0.0)
-        gap = _gaps(pair, s, y, mods) / math.cos(pair.beta_b)
+        theta, k_sl, gap = self.slices(pair, mods)
+        n_pairs = k_sl.shape[1]
         k_tab = np.empty((tq.size, self.n_theta))
         e_tab = np.empty_like(k_tab)
         share = np.zeros((tq.size, self.n_theta, n_pairs))
@@ -145,7 +133,7 @@ class SliceMicroModel:
             for i in range(self.n_theta):
                 kk, gg = k_sl[i].ravel(), gap[i].ravel()
                 m = kk > 0
-                d = _equilibrium(kk[m], gg[m], ft)
+                d = equilibrium(kk[m], gg[m], ft)
                 load = kk * np.maximum(d - gg, 0.0) * m
                 k_tab[it, i] = kk[m & (gg < d)].sum()
                 e_tab[it, i] = d
@@ -159,7 +147,36 @@ class SliceMicroModel:
                               metadata=meta)
 
 
-def _equilibrium(k: np.ndarray, gap: np.ndarray, force: float) -> float:
+    def slices(self, pair: GearPair, mods: MicroMods) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Mesh angles, slice stiffnesses and gaps over one mesh period.
+
+        Returns
+        -------
+        theta : ndarray, shape (n_theta,)
+            Input angle within the mesh period, rad (pair 0 enters at 0).
+        k : ndarray, shape (n_theta, n_pairs, n_slices)
+            Stiffness of each slice of each pair, N/m (0 outside the path of contact). Pair ``p`` entered
+            ``p`` mesh periods before pair 0.
+        gap : ndarray, same shape
+            Initial separation on the transverse line of action, m.
+        """
+        g = pair.g_alpha
+        b = pair.face_width
+        tb = math.tan(pair.beta_b)
+        theta = np.arange(self.n_theta) * (2 * math.pi / pair.z[0]) / self.n_theta
+        n_pairs = int(math.ceil(pair.eps_alpha + pair.eps_beta)) + 1
+        y = (np.arange(self.n_slices) + 0.5) * b / self.n_slices
+        s = (pair.rb[0] * theta[:, None, None] + pair.pb_t * np.arange(n_pairs)[None, :, None]
+             - y[None, None, :] * tb)  # (n_theta, n_pairs, n_slices)
+        inside = (s >= 0) & (s <= g)
+        f_min = _shape_min(pair.eps_alpha)
+        u = np.clip(s / g, 0, 1)
+        k_sl = np.where(inside, iso_single_stiffness(pair) * (f_min + (1 - f_min) * 4 * u * (1 - u)) * (b / self.n_slices),
+                        0.0)
+        return theta, k_sl, _gaps(pair, s, y, mods) / math.cos(pair.beta_b)
+
+
+def equilibrium(k: np.ndarray, gap: np.ndarray, force: float) -> float:
     """Deflection ``d`` with ``sum k max(d - gap, 0) = force`` (piecewise linear, increasing in d)."""
     order = np.argsort(gap)
     gs, ks = gap[order], k[order]

@@ -18,6 +18,9 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--report", metavar="DIR",
                         help="write diagnosis.json, summary.txt and before/after plots (run_<i>.png) into DIR")
     parser.add_argument("--save", metavar="NPZ", type=Path, help="save the full result (traces + JSON)")
+    parser.add_argument("--write-config", metavar="OUT.toml", type=Path,
+                        help="write a config that extends NAME_OR_PATH with the found effects (runout, pitch "
+                             "deviations, flank modifications, rig parameters): `gearrom sweep OUT.toml` runs it")
     parser.add_argument("--simulator", choices=("auto", "rom", "torsional"), default="auto",
                         help="dynamic model: the exudyn ROM, the torsional rig model, or auto (the ROM when the "
                              "config describes a rig, as thesis-rig; else the torsional rig model)")
@@ -67,6 +70,7 @@ def check_args(args: argparse.Namespace) -> tuple[str, ...] | None:
     args.json_out = check_output("--json", args.json_out, stdout=True, what="JSON file")
     args.report = check_output_dir("--report", args.report)
     args.save = check_output("--save", args.save, what="result file")
+    args.write_config = check_output("--write-config", args.write_config, (".toml",), what="config file")
     names = None
     if args.effects is not None:
         names = tuple(x.strip() for x in args.effects.split(",") if x.strip())
@@ -121,6 +125,10 @@ def run(args: argparse.Namespace) -> int:
         prepare_output(args.json_out).write_text(res.to_json())
     if args.save:
         res.save(prepare_output(args.save))
+    if args.write_config:
+        from gearrom.calibrate.writeconfig import write_config
+
+        write_config(res.summary, args.config, prepare_output(args.write_config))
     if args.json_out != "-":
         sys.stdout.write(res.text())
     if args.report:

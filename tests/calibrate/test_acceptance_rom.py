@@ -77,14 +77,13 @@ def test_once_per_rev_effects(rom_diagnosed, key, inj, effect, target, amp, phas
 
 def test_pitch_error(rom_diagnosed):
     """7 um on tooth 7 of the input gear, through the ROM's cumulative pitch curve (smoothed over eps_gamma
-    pitches: its own load-sharing model, not the diagnosis' load-share window). The ROM adds the curve
+    pitches: its own load-sharing model, not the diagnosis' thin-slice tooth pattern). The ROM adds the curve
     with a minus sign for the input gear (``e -= curve``): a TE-equivalent deviation of -7 um. Position:
     the ROM's displaced tooth is centred at absolute gear angle (k + 1/2) 2 pi / z; the diagnosis counts
-    teeth from the record start, with the load-share window of tooth j centred at (j + c0) 2 pi / z."""
+    teeth from the record start, with the pattern of tooth j centred at (j + c0) 2 pi / z."""
     import numpy as np
 
-    from gearrom.calibrate.effects import load_share_window
-    from gearrom.calibrate.microgeom import SliceMicroModel
+    from gearrom.calibrate.tooth import tooth_te
     from gearrom.config import load_config
 
     z, k, f = 32, 7, 7e-6
@@ -93,8 +92,8 @@ def test_pitch_error(rom_diagnosed):
     assert (e["effect"], e["target"]) == ("pitch_error", "input_gear"), res.text()
     assert e["parameters"]["deviation_um"] == pytest.approx(-7.0, rel=0.25)
     pair = load_config("thesis-rig", check=False).pair
-    w = load_share_window(SliceMicroModel().excitation(pair, [120.0], MicroMods()).load_share[0], 4096, z)
-    c0 = float(np.sum(w * np.arange(w.size)) / np.sum(w)) / w.size * z  # window centre, teeth
+    w = tooth_te(pair, 120.0, 0, 1e-6)
+    c0 = float(np.sum(w * np.arange(w.size)) / np.sum(w)) / w.size * z  # pattern centre, teeth
     pitch = 2 * math.pi / z
     true_centre = ((k + 0.5) * pitch - info["theta_first_in"]) % (2 * math.pi)
     found = ((e["parameters"]["tooth_index"] + c0) * pitch) % (2 * math.pi)

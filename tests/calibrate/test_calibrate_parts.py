@@ -9,7 +9,7 @@ import pytest
 from scipy import signal
 
 from gearrom.calibrate import characterize as chz
-from gearrom.calibrate.effects import amp_phase, load_share_window
+from gearrom.calibrate.effects import amp_phase
 from gearrom.calibrate.microgeom import MicroMods, SliceMicroModel
 from gearrom.calibrate.residual import detrend, estimate_mesh_phase, fit_lines, noise_rms
 from gearrom.calibrate.rig import TorsionalRig
@@ -62,14 +62,38 @@ def test_tip_relief_start_inside_base_circle_is_rejected(pairs):
                                      MicroMods(tip_relief=(8e-6, 0.0), tip_relief_start_diameter=(40e-3, None)))
 
 
-def test_load_share_window_sums_to_one_over_teeth(pairs):
-    """All teeth displaced by the same amount shift the TE by that amount: the windows of all teeth sum to 1."""
+def test_tooth_te_all_teeth_displaced_shift_te_by_the_deviation(pairs):
+    """Every tooth displaced by the same small amount shifts the TE by that amount (a rigid rotation of the
+    gear): the single-tooth patterns of all teeth sum to the deviation at every angle."""
+    from gearrom.calibrate.tooth import tooth_te
+
     pair = pairs["thesis-helical"]
-    ex = SliceMicroModel().excitation(pair, [120.0], MicroMods())
     z = pair.z[0]
-    w = load_share_window(ex.load_share[0], 4096, z)
-    total = sum(np.roll(w, round(k * 4096 / z)) for k in range(z))
-    np.testing.assert_allclose(total, 1.0, atol=0.02)
+    te = tooth_te(pair, 120.0, 0, 1e-6)
+    n = te.size // z
+    total = sum(np.roll(te, k * n) for k in range(z))
+    np.testing.assert_allclose(total, 1e-6, rtol=1e-9)
+
+
+def test_tooth_te_spur_single_contact_and_saturation(pairs):
+    """Spur pair (eps_alpha 1.85): while the displaced tooth carries the load alone (single-pair zone) the TE
+    changes by the whole deviation; a tooth set back further than its neighbour's static deflection leaves
+    contact, and the TE change saturates at F/k_neighbour - F/k_both (hand statics of two springs)."""
+    from gearrom.calibrate.microgeom import SliceMicroModel
+    from gearrom.calibrate.tooth import tooth_te
+
+    pair = pairs["thesis-spur"]
+    small = tooth_te(pair, 120.0, 0, 1e-6)
+    assert small.max() == pytest.approx(1e-6, rel=1e-9)
+    assert small.sum() / (small.size / pair.z[0]) == pytest.approx(1e-6, rel=1e-6)  # area: one pitch x d
+    big = tooth_te(pair, 120.0, 0, 200e-6)
+    theta, k, gap = SliceMicroModel().slices(pair, MicroMods())
+    n_t = theta.size
+    # a double-contact angle: pairs 0 and 1 in mesh, the displaced tooth is pair 1 in mesh period 1
+    i = next(i for i in range(n_t) if k[i, 0].sum() > 0 and k[i, 1].sum() > 0)
+    f = 120.0 / pair.rb[1]
+    k0, k1 = k[i, 0].sum(), k[i, 1].sum()
+    assert big[n_t + i] == pytest.approx(f / k0 - f / (k0 + k1), rel=1e-9)
 
 
 def test_fit_lines_recovers_lines_with_trend_and_short_record():
@@ -183,6 +207,29 @@ def test_classify_peaks_fixed_vs_tracking():
     out = {round(p["frequency_hz"]): p for p in chz.classify_peaks(runs, peaks)}
     assert out[200]["kind"] == "fixed_frequency" and out[200]["order"] is None
     assert out[55]["kind"] == "order_tracking" and out[55]["order"] == pytest.approx(55.1 / (1250 / 60))
+
+
+def test_classify_peaks_short_records_one_order_line():
+    """Input order 1 of two short records (4 output revolutions of a 32/41 pair at 1250 and 2000 rpm, measured
+    speeds 0.3 % off nominal, peaks read 0.1-0.8 % off the exact order by leakage) is one order-tracking line,
+    not two single-speed lines: the two hypotheses (fixed: 20.9 Hz; order: 33.4 Hz) lie 2 bins of the
+    shorter record apart, the peaks within 0.05 bin of the order prediction."""
+    from gearrom.calibrate.residual import RunData
+    from gearrom.signal import GearMeshInfo
+
+    mesh = GearMeshInfo(32, 41, 0.0266, 0.0341, 0.0283, 0.0363)
+
+    def run(rpm):
+        t = np.linspace(0, 4 * 60 / rpm * 41 / 32, 100)
+        return RunData(f"r{rpm}", rpm, rpm / 1.003, 120.0, t, t, t, np.zeros((3, 100)), 16e3, mesh)
+
+    runs = [run(1253.75), run(2006.0)]
+    peaks = [[(20.9, 2e-6)], [(33.6, 1.5e-6)]]
+    out = chz.classify_peaks(runs, peaks)
+    assert len(out) == 1
+    assert out[0]["kind"] == "order_tracking" and out[0]["runs_seen"] == 2
+    assert out[0]["order"] == pytest.approx(1.0, abs=0.01)
+    assert out[0]["integer_order"] == "input order 1"
 
 
 @pytest.mark.parametrize("config,mods", [

@@ -1,0 +1,169 @@
+"""Tooth-local candidate ``pitch_error``: one displaced tooth, fitted on the pulse train it leaves.
+
+The kinematic error pattern is the static TE change of :func:`gearrom.calibrate.tooth.tooth_te`
+(the tooth followed through its whole engagement, load shared with the other pairs, slice
+stiffness scaled to the mesh stiffness of the micro-geometry model's table, i.e. the FE table when
+the diagnosis runs on it). It passes through the run's drivetrain response ``H(q)`` at every
+order of its shaft the sensitivity holds (6 GMF harmonics of the input, 2 z of the output), so
+the prediction is the time-domain pulse train at the shaft period, not a few order lines.
+
+Fit: the position of the tooth (``N_SUB`` trial positions per pitch: the tooth index and the
+mesh phase together, so that an unidentifiable mesh phase costs nothing) is found by correlating
+the residual with the whole pulse of a small deviation, computed in the order domain. The deviation
+is then fitted by a bounded scalar search on the non-linear pattern (a tooth set back leaves
+contact, one set forward takes the load of its neighbours), on the shaft orders below
+``z / (2 eps_gamma)`` (at least 3): there the pulse is set by its area (deviation x one pitch in
+the linear range), whatever model of load sharing made it, while its shape at higher orders
+depends on that model. The prediction and the energy it explains use the whole pulse. Runs recorded from different angle zeros
+(``FitSettings.shared_shaft_phase`` False) get a position each; the deviation is common.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.optimize import minimize_scalar
+
+from gearrom.calibrate.fit import Candidate, Context, Trial, _dt, _shaft, _theta, size_uncertainty
+from gearrom.calibrate.microgeom import SliceMicroModel
+from gearrom.calibrate.model import N_TABLE
+from gearrom.calibrate.tooth import periodic_sample, tooth_te
+from gearrom.errors import GearromError
+
+UM = 1e-6
+N_SUB = 8  # trial tooth positions per pitch
+
+
+class PitchError(Candidate):
+    """One displaced tooth of a gear: position (tooth index and sub-pitch phase) and deviation fitted."""
+
+    def __init__(self, name: str, target: str):
+        super().__init__(name, target)
+        self._patterns: dict = {}
+        self._bases: dict = {}
+
+    # ------------------------------------------------------------------ model
+    def _gear(self) -> int:
+        return 0 if self.target == "input_gear" else 1
+
+    def _scale(self, ctx: Context, torque: float) -> float:
+        key = ("scale", round(torque, 6))
+        if key not in self._patterns:
+            scale = 1.0
+            try:
+                k_ref = np.mean(ctx.micro_model.excitation(ctx.pair, [torque], ctx.micro_nominal).k[0])
+                k_sl = np.mean(SliceMicroModel().excitation(ctx.pair, [torque], ctx.micro_nominal).k[0])
+                scale = float(k_ref / k_sl) if k_sl > 0 and np.isfinite(k_ref) else 1.0
+            except (GearromError, AttributeError):
+                pass
+            self._patterns[key] = scale
+        return self._patterns[key]
+
+    def pattern(self, ctx: Context, torque: float, deviation_um: float) -> np.ndarray:
+        """Static TE change (m) over one revolution of the gear, tooth 0 displaced by ``deviation_um``."""
+        key = (round(torque, 6), round(deviation_um, 4))
+        if key not in self._patterns:
+            self._patterns[key] = tooth_te(ctx.pair, torque, self._gear(), deviation_um * UM, ctx.micro_nominal,
+                                           stiffness_scale=self._scale(ctx, torque))
+        return self._patterns[key]
+
+    def _basis(self, r: int, m) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Orders, response ``H`` (3, Q) and ``exp(i q theta)`` (n, Q) of run ``r``."""
+        if r not in self._bases:
+            orders, H = m.H[_shaft(self.target)]
+            self._bases[r] = (orders, H, np.exp(1j * np.outer(_theta(m, _shaft(self.target)), orders)))
+        return self._bases[r]
+
+    def _coeffs(self, r: int, m, pat: np.ndarray) -> np.ndarray:
+        """``G`` (3, Q): the signals' complex order amplitudes for the pattern at position 0."""
+        orders, H, _ = self._basis(r, m)
+        E = 2 * np.fft.rfft(pat) / pat.size
+        return H * E[orders][None, :]
+
+    def _predict(self, r: int, m, G: np.ndarray, shift: float) -> np.ndarray:
+        orders, _, B = self._basis(r, m)
+        return _dt((B @ (G * np.exp(-1j * orders * shift)[None, :]).T).real.T, axis=1)
+
+    # ------------------------------------------------------------------ fit
+    def fit(self, ctx, R):
+        z = ctx.pair.z[self._gear()]
+        shifts = np.arange(z * N_SUB) * 2 * math.pi / (z * N_SUB)
+        pieces, start = [], 0
+        for m in ctx.models:  # the stacked residual, back to (3, n) per run (weights kept)
+            n = m.run.t_s.size
+            pieces.append(R[start:start + 3 * n].reshape(3, n))
+            start += 3 * n
+        num, den = [], []
+        for r, m in enumerate(ctx.models):
+            G = self._coeffs(r, m, self.pattern(ctx, m.run.torque_out_Nm, 1.0))
+            orders, _, B = self._basis(r, m)
+            rho = pieces[r] @ B  # (3, Q)
+            c = ((ctx.w[:, None] * G * rho).sum(axis=0))
+            num.append((c[None, :] * np.exp(-1j * np.outer(shifts, orders))).real.sum(axis=1))
+            p0 = self._predict(r, m, G, 0.0)
+            den.append(float(np.sum((ctx.w[:, None] * p0) ** 2)))
+        num, den = np.array(num), np.array(den)
+        if ctx.s.shared_shaft_phase:
+            tot = num.sum(axis=0)
+            j = int(np.argmax(np.abs(tot)))
+            idx, sign = [j] * len(ctx.models), math.copysign(1.0, tot[j])
+        else:  # each run its own position; the sign (and the deviation) common
+            best = []
+            for sgn in (1.0, -1.0):
+                jj = np.argmax(sgn * num, axis=1)
+                g = sum(sgn * num[r, j] for r, j in enumerate(jj))
+                best.append((g * g / den.sum(), list(map(int, jj)), sgn))
+            _, idx, sign = max(best, key=lambda b: b[0])
+        d_lin = float(sum(num[r, j] for r, j in enumerate(idx)) / den.sum())
+        if not np.isfinite(d_lin) or d_lin == 0.0:
+            return None
+        pos = [float(shifts[j]) for j in idx]
+
+        q_low = max(3, int(z / (2.0 * ctx.pair.eps_gamma)))
+
+        def contributions(d: float, low: bool = False) -> list[np.ndarray]:
+            out = []
+            for r, m in enumerate(ctx.models):
+                G = self._coeffs(r, m, self.pattern(ctx, m.run.torque_out_Nm, d))
+                if low:
+                    G = G * (self._basis(r, m)[0] <= q_low)[None, :]
+                out.append(self._predict(r, m, G, pos[r]))
+            return out
+
+        def cost(d: float) -> float:
+            e = R - ctx.stack(contributions(d, low=True))
+            return float(e @ e)
+
+        lo, hi = sorted((sign * min(abs(d_lin) / 4, self.bound), sign * min(abs(d_lin) * 4, self.bound)))
+        d = float(minimize_scalar(cost, bounds=(lo, hi), method="bounded", options={"xatol": 0.01}).x)
+        contrib = contributions(d)
+        rest = R - ctx.stack(contrib)
+        dss = float(R @ R - rest @ rest)
+        eps = max(0.01 * abs(d), 0.05)
+        col = (ctx.stack(contributions(d + eps)) - ctx.stack(contributions(d - eps))) / (2 * eps)
+        pitch = 2 * math.pi / z
+        tooth = [int(round(p / pitch)) % z for p in pos]
+        info = {"fitted_deviation_um": d, "tooth_index": tooth[0], "tooth_index_per_run": tooth, "position_rad": pos, "z": z,
+                "sigma_size_um": size_uncertainty(ctx, rest, col), "linear_deviation_um": d_lin}
+        n_par = 2 if ctx.s.shared_shaft_phase else 1 + len(ctx.models)
+        return Trial(self, np.array([d]), contrib, dss, n_par, info)
+
+    def linear_columns(self, ctx, info) -> tuple[list, np.ndarray, np.ndarray]:
+        """The secant column of the fitted deviation (per-run list) and bounds for a joint linear refit."""
+        d = info.get("fitted_deviation_um")
+        cols = [self._predict(r, m, self._coeffs(r, m, self.pattern(ctx, m.run.torque_out_Nm, d)),
+                              info["position_rad"][r]) / d for r, m in enumerate(ctx.models)]
+        return [cols], np.array([-self.bound]), np.array([self.bound])
+
+    def report(self, x, info):
+        out = {"tooth_index": int(info["tooth_index"]), "deviation_um": float(x[0])}
+        if len(set(info["tooth_index_per_run"])) > 1:
+            out["tooth_index_per_run"] = info["tooth_index_per_run"]
+        return out
+
+    def changes(self, x, info, ctx, run: int = 0):
+        m = ctx.models[run]
+        pat = self.pattern(ctx, m.run.torque_out_Nm, float(x[0]))
+        th = np.arange(N_TABLE) * 2 * math.pi / N_TABLE
+        tab = periodic_sample(pat, th, info["position_rad"][run])
+        return {"kinematic_in" if _shaft(self.target) == "input" else "kinematic_out": tab - tab.mean()}

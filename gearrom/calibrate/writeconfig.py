@@ -1,0 +1,167 @@
+"""The closed loop's output a user keeps: a config that extends the diagnosed one with the found effects.
+
+:func:`diagnosed_config` turns the effects of a diagnosis (``gearrom.diagnosis/1`` summary) into
+TOML keys of the gear and rig sections, so that ``gearrom sweep OUT.toml`` runs the model with them:
+
+* ``eccentricity`` -> ``<gear>.microgeometry.runout_um`` (= 2 x amplitude) and ``runout_phase_deg``;
+* ``pitch_error`` -> ``<gear>.microgeometry.pitch_deviations_um`` (the displaced tooth and its
+  neighbour, signs of the ROM's convention: positive = tooth ahead in its gear's rotation);
+* ``tip_relief`` -> ``<gear>.microgeometry.tip_relief_um``; ``lead_crowning`` / ``helix_slope`` ->
+  the input gear's ``lead_crowning_um`` / ``helix_slope_um`` (the pair's values are the sums over
+  both gears); each added to what the nominal model used;
+* ``torsional_mode`` -> the scaled rig parameter (``gearrom.calibrate.simulator.ROM_TUNABLE``).
+
+A gear section that gets an effect is written whole (``enabled = true`` and every modification
+key): values the nominal model did not use (a disabled drawing micro-geometry) become 0, so that
+switching the section on adds only what the diagnosis found (a tip chamfer of the drawing is put at
+the tip). Measurement-only effects (encoder
+eccentricity) and changes with no config key are listed in the file's header, not applied.
+
+Angles: phases and tooth positions refer to the first run's encoder zero taken as the gear's angle
+zero; a recording without an index pulse fixes them only up to that offset, which changes the
+phase of the predicted shaft-order lines, not their amplitudes.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from gearrom.calibrate.effects import GEARS
+from gearrom.errors import CalibrationError
+
+MICRO_KEYS = ("tip_relief_um", "profile_crowning_um", "lead_crowning_um", "helix_slope_um", "profile_slope_um",
+              "runout_um")
+
+
+def _micro_base(raw: dict, gear: str, tip_diameter_m: float) -> dict:
+    """The microgeometry table as the nominal model used it: where it was switched off, every
+    modification 0 and the tip form diameter at the tip (no chamfer)."""
+    sec = dict(raw.get(gear, {}).get("microgeometry", {}))
+    if not sec.get("enabled", False):
+        sec = {k: v for k, v in sec.items() if k not in ("pitch_deviations_um", "runout_phase_deg")}
+        sec.update({k: 0.0 for k in MICRO_KEYS})
+        if "tip_form_diameter_mm" in sec:
+            sec["tip_form_diameter_mm"] = tip_diameter_m * 1e3
+    sec["enabled"] = True
+    return sec
+
+
+def _centre(w: np.ndarray, z: int) -> float:
+    """Circular centroid of a one-revolution pattern, in pitches from angle 0."""
+    ang = np.arange(w.size) * 2 * np.pi / w.size
+    return float(np.arctan2(np.sum(w * np.sin(ang)), np.sum(w * np.cos(ang))) * z / (2 * np.pi) % z)
+
+
+def _rom_tooth(pair, gear: int, tooth_index: int, torque_Nm: float) -> int:
+    """The tooth of the ROM's pitch curve whose TE pulse is centred nearest the diagnosis' tooth pattern."""
+    from gearrom.calibrate.tooth import tooth_te
+    from gearrom.rom.mesh import pitch_curve
+
+    z = pair.z[gear]
+    target = tooth_index + _centre(np.abs(tooth_te(pair, torque_Nm, gear, 1e-6)), z)
+    fp = np.zeros(z)
+    fp[0], fp[1] = 1e-6, -1e-6
+    curve = pitch_curve(pair, gear, fp)
+    c0 = _centre(np.abs(curve - np.median(curve)), z)
+    return int(round(target - c0)) % z
+
+
+def diagnosed_config(summary: dict, config) -> tuple[dict, list[str]]:
+    """TOML content (units as written) of a config extending ``config`` with the diagnosed effects.
+
+    Parameters
+    ----------
+    summary : dict
+        ``DiagnosisResult.summary`` (``gearrom.diagnosis/1``).
+    config : str or Path
+        The config the diagnosis ran on (bundled name or TOML path).
+
+    Returns
+    -------
+    doc : dict
+        The TOML document (``extends`` the original).
+    notes : list of str
+        What was not written and why (header comments of the file).
+    """
+    from gearrom.calibrate.simulator import ROM_TUNABLE
+    from gearrom.config import load_config
+
+    cfg = load_config(config, check=False)
+    raw = cfg.raw
+    ref = str(Path(config).resolve()) if Path(str(config)).suffix == ".toml" else str(config)
+    doc: dict = {"extends": ref, "name": f"{cfg.name}-diagnosed",
+                 "description": f"{cfg.name} with the effects found by gearrom diagnose"}
+    micro: dict[str, dict] = {}
+    notes: list[str] = []
+    torque = float(summary.get("runs", [{}])[0].get("torque_out_Nm") or cfg.operating.torque_out_Nm or 100.0)
+
+    def sec(gear: str) -> dict:
+        if gear not in micro:
+            micro[gear] = _micro_base(raw, gear, cfg.pair.da[GEARS.index(gear)])
+        return micro[gear]
+
+    for e in summary.get("effects", []):
+        name, target, p = e["effect"], e.get("target"), e["parameters"]
+        if name == "eccentricity":
+            s = sec(target)
+            s["runout_um"] = 2.0 * float(p["amplitude_um"])
+            # diagnosis: a cos(theta + phi); ROM runout: e sin(theta + phase)
+            s["runout_phase_deg"] = float((p["phase_deg"] + 90.0) % 360.0)
+        elif name == "pitch_error":
+            gi = GEARS.index(target)
+            z = cfg.pair.z[gi]
+            k = _rom_tooth(cfg.pair, gi, int(p["tooth_index"]), torque)
+            a = -float(p["deviation_um"]) if gi == 0 else float(p["deviation_um"])  # TE sign of the ROM
+            s = sec(target)
+            fp = list(map(float, s.get("pitch_deviations_um", [0.0] * z)))
+            fp[k] += a
+            fp[(k + 1) % z] -= a
+            s["pitch_deviations_um"] = fp
+        elif name == "tip_relief":
+            s = sec(target)
+            s["tip_relief_um"] = s.get("tip_relief_um", 0.0) + float(p["amount_um"])
+            if p.get("start_diameter_mm") and "tip_relief_start_diameter_mm" not in s:
+                s["tip_relief_start_diameter_mm"] = float(p["start_diameter_mm"])
+        elif name in ("lead_crowning", "helix_slope"):
+            key = f"{name}_um"
+            sec("input_gear")[key] = sec("input_gear").get(key, 0.0) + float(p["amount_um"])
+        elif name == "torsional_mode":
+            param, scale = p.get("parameter") or e.get("parameter"), float(p["scale"])
+            path = ROM_TUNABLE.get(param, (None,))[0]
+            if path is None:
+                notes.append(f"torsional_mode: {param} x{scale:.4g} has no config key; not written")
+                continue
+            *heads, leaf = path.split(".")
+            node, src = doc, raw
+            for h in heads:
+                node = node.setdefault(h, {})
+                src = src.get(h, {})
+            if leaf not in src:
+                notes.append(f"torsional_mode: {path} is not in the config; not written")
+                continue
+            node[leaf] = float(src[leaf]) * scale
+        elif name == "encoder_eccentricity":
+            notes.append(f"{target}: eccentricity {p['amplitude_um']:.3g} um at {p['phase_deg']:.1f} deg is a "
+                         "measurement error, not part of the gear model; not written")
+        else:
+            raise CalibrationError(f"write config: effect {name!r} has no config mapping")
+    for gear, s in micro.items():
+        doc.setdefault(gear, {})["microgeometry"] = s
+    return doc, notes
+
+
+def write_config(summary: dict, config, path: str | Path) -> Path:
+    """Write :func:`diagnosed_config` as TOML to ``path`` (header comments list what was left out)."""
+    import tomli_w
+
+    doc, notes = diagnosed_config(summary, config)
+    before, after = summary.get("error_before_rms_um"), summary.get("error_after_rms_um")
+    head = ["# Written by gearrom diagnose: the diagnosed config with the effects it found.",
+            f"# TE error rms on the diagnosed runs: {before:.4g} um before, {after:.4g} um after."
+            if before is not None and after is not None else "#",
+            "# Phases and tooth positions refer to the first run's encoder zero as gear angle zero."]
+    head += [f"# not applied: {n}" for n in notes]
+    out = Path(path)
+    out.write_text("\n".join(head) + "\n" + tomli_w.dumps(doc))
+    return out
