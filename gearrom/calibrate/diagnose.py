@@ -273,6 +273,13 @@ def _assemble(ctx: Context, config, sim, D, accepted, steps, after) -> Diagnosis
     if after_rms > before * 1.02 and accepted:
         warnings.append("the re-simulated model with the effects is worse than the nominal one: the linearized fit "
                         "did not carry over (strong non-linearity or contact loss)")
+    unaligned = [m.run.name for m in models if not m.psi_identifiable]
+    if unaligned:
+        warnings.append(
+            f"mesh phase not identifiable on {', '.join(map(str, unaligned))} (GMF lines of the nominal model or the "
+            "measurement at noise level): flank-modification candidates fit the mesh phase as a free parameter, "
+            "pitch_error searches the tooth position on 1/8-pitch steps (no mesh phase needed), once-per-rev "
+            "effects do not depend on it; the GMF lines of the before/after traces are not aligned")
     lin_after = full / UM
     if accepted and after_rms > 1.5 * lin_after + 3 * np.mean([m.noise_m for m in models]) / UM:
         warnings.append(f"re-simulated error {after_rms:.3g} um exceeds the linearized prediction {lin_after:.3g} um")

@@ -3,9 +3,9 @@
 Conventions (as gearrom's effect library, so that sizes compare): amplitudes are transmission-error
 (TE) equivalents on the transverse line of action in um, positive = output lags; angles and tooth
 indices refer to the encoder zero of the record (each channel's first edge, see README.md);
-``tooth_index`` k is the tooth whose mid-face section enters contact (point A) at the record angle
-``2 pi k / z`` of its gear. Flank deviations are *minus material* along the line of action
-(positive = the flank is set back, contact comes later, output lags).
+``tooth_index`` k is the tooth that enters contact (its leading face end reaches point A, the start
+of active contact) at the record angle ``2 pi k / z`` of its gear. Flank deviations are *minus material*
+along the line of action (positive = the flank is set back, contact comes later, output lags).
 """
 from __future__ import annotations
 

@@ -83,13 +83,13 @@ def edge_times(t: np.ndarray, phi: np.ndarray, omega: np.ndarray, t_from: float,
         Edge times, edge 0 = the index; jitter included (kept non-decreasing).
     """
     n_ = edges_per_rev
-    lines = np.random.default_rng(err.seed).normal(0.0, err.line_rms_rad, n_ // 4 if n_ % 4 == 0 else n_) if err.line_rms_rad else np.zeros(1)
+    per_line = 4 if n_ % 4 == 0 else 1  # x4 decoding: the 4 edges of a line share its error
+    lines = np.random.default_rng(err.seed).normal(0.0, err.line_rms_rad, n_ // per_line)
     lines[0] = 0.0
-    per_line = 4 if n_ % 4 == 0 else 1
     step = 2 * math.pi / n_
 
     def target(n: np.ndarray) -> np.ndarray:
-        nominal = n * step - (lines[(n % n_) // per_line] if err.line_rms_rad else 0.0)
+        nominal = n * step - lines[(n % n_) // per_line]
         phi_n = nominal.copy()
         for _ in range(2):  # phi + ecc cos(phi + phase) = nominal (fixed point, ecc << 1)
             phi_n = nominal - err.ecc_rad * np.cos(phi_n + err.ecc_phase_rad)

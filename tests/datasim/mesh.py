@@ -3,10 +3,13 @@
 The common face width b is cut into ``n_slices`` slices of width ``dy``. Slice m (centre ``y_m``,
 ``-b/2 < y_m < b/2``) is a spur pair whose teeth are staggered by the base helix:
 tooth pair j (tooth ``j mod z1`` of gear 1 with tooth ``j mod z2`` of gear 2) touches at the
-distance ``u = rb1 phi1 + y_m tan(beta_b) - j pbt`` from A along the transverse line of action,
-and only for ``0 <= u <= g_alpha``. At ``phi1 = 0`` tooth pair 0 enters at A in the mid-face slice.
-A slice's contact line spans ``u -+ dy tan(beta_b)/2`` in roll; its stiffness is weighted by the share
-of that span inside the path, so slices enter and leave contact gradually (no slice staircase).
+distance ``u = rb1 phi1 + (y_m - b/2) tan(beta_b) - j pbt`` from A along the transverse line of action,
+and only for ``0 <= u <= g_alpha``. At ``phi1 = 0`` tooth pair 0 enters contact: its leading face end
+(``y = b/2``) is at A (gearrom's "pair 0 enters contact at theta = 0").
+A slice's contact spans ``u -+ w`` in roll, ``w = max(dy tan(beta_b)/2, 0.05 mm)``; its stiffness is
+weighted by the share of that span inside the path, so slices enter and leave contact over a short
+ramp (no slice staircase for the helical pair; for the spur pair a 0.1 mm roll ramp, like a small
+edge rounding at the tips, instead of a jump that a fixed-step integrator resolves only to O(h)).
 
 Each contact is a linear spring (compression only) on the gap ``delta - dev``:
 stiffness ``c' dy shape(u)``, ``shape(u) = 1 - (1 - s_end) (2 u / g_alpha - 1)^2`` (parabolic, lowest
@@ -29,6 +32,9 @@ UM = 1e-6
 S_END = 0.65
 #: contacts per slice that the buffers hold (eps_alpha + 2 is enough)
 MAX_PER_SLICE = 6
+#: smallest half length of the contact ramp at the path ends [m] (edge rounding at the tips; also keeps
+#: the stiffness continuous in time for the fixed-step integrator)
+EDGE_RAMP = 0.05e-3
 
 
 @dataclass(frozen=True)
@@ -37,9 +43,10 @@ class MeshModel:
 
     Attributes
     ----------
-    gp : ndarray, shape (16,)
+    gp : ndarray, shape (18,)
         rb1, pbt, g_alpha, tan(beta_b), c' dy, s_end, tip relief gear 1 (amount, start u, exponent),
-        tip relief gear 2 (amount, start u, exponent), eccentricity gear 1 (e, phase), gear 2 (e, phase).
+        tip relief gear 2 (amount, start u, exponent), eccentricity gear 1 (e, phase), gear 2 (e, phase),
+        edge ramp half length, half face width.
     ys, slice_dev : ndarray, shape (n_slices,)
         Slice centres [m] and the lead deviation (crowning + slope) of each slice [m].
     pitch1, pitch2 : ndarray, shape (z1,), (z2,)
@@ -63,7 +70,7 @@ class MeshModel:
 
 
 def build_mesh(g: PairGeometry, case: Case | None = None, n_slices: int = 40, c_prime: float | None = None,
-               stiffness_scale: float = 1.0) -> MeshModel:
+               stiffness_scale: float = 1.0, edge_ramp: float = EDGE_RAMP) -> MeshModel:
     """Mesh arrays of pair ``g`` with the flank effects of ``case``.
 
     Parameters
@@ -77,6 +84,8 @@ def build_mesh(g: PairGeometry, case: Case | None = None, n_slices: int = 40, c_
         Single stiffness [N/m/m]; default ISO 6336-1 method B.
     stiffness_scale : float
         Factor on the stiffness (``mesh_stiffness`` of a torsional_mode case).
+    edge_ramp : float
+        Smallest half roll length [m] over which a slice's contact enters and leaves (see module doc).
     """
     case = case or Case()
     cp = (c_prime if c_prime is not None else iso_single_stiffness(g)) * stiffness_scale
@@ -106,7 +115,8 @@ def build_mesh(g: PairGeometry, case: Case | None = None, n_slices: int = 40, c_
             e.center * g.g_alpha, e.width * g.g_alpha / 2, (e.face_from - 0.5) * g.b, (e.face_to - 0.5) * g.b]
            for e in case.of(DamagedTooth)]
     gp = np.array([g.rb1, g.pbt, g.g_alpha, math.tan(g.beta_b), cp * dy, S_END,
-                   *relief["input_gear"], *relief["output_gear"], *ecc["input_gear"], *ecc["output_gear"]])
+                   *relief["input_gear"], *relief["output_gear"], *ecc["input_gear"], *ecc["output_gear"],
+                   edge_ramp, g.b / 2])
     return MeshModel(gp, ys, slice_dev, pitch["input_gear"], pitch["output_gear"],
                      np.array(dmg, float).reshape(-1, 7), cp)
 
@@ -122,19 +132,16 @@ def contacts(phi1, phi2, gp, ys, slice_dev, pitch1, pitch2, dmg, dev_out, k_out)
     ecc = gp[12] * math.cos(phi1 + gp[13]) + gp[14] * math.cos(phi2 + gp[15])
     z1, z2 = pitch1.size, pitch2.size
     s = rb1 * phi1
-    hw = 0.0 if ys.size < 2 else 0.5 * (ys[1] - ys[0]) * abs(tanbb)
+    hw = gp[16] if ys.size < 2 else max(gp[16], 0.5 * (ys[1] - ys[0]) * abs(tanbb))
     n = 0
     for m in range(ys.size):
-        sm = s + ys[m] * tanbb
+        sm = s + (ys[m] - gp[17]) * tanbb
         jlo = int(math.ceil((sm - ga - hw) / pbt))
         jhi = int(math.floor((sm + hw) / pbt))
         for j in range(jlo, jhi + 1):
             uc = sm - j * pbt
             # share of the slice's contact line (roll extent uc -+ hw) inside the path [0, ga]
-            if hw > 0.0:
-                frac = (min(uc + hw, ga) - max(uc - hw, 0.0)) / (2.0 * hw)
-            else:
-                frac = 1.0 if 0.0 <= uc <= ga else 0.0
+            frac = (min(uc + hw, ga) - max(uc - hw, 0.0)) / (2.0 * hw)
             if frac <= 0.0:
                 continue
             u = min(max(uc, 0.0), ga)

@@ -2,7 +2,7 @@
 
 Time line: the rig starts at static equilibrium under the load at t = 0 with gear 1 at body angle
 ``-Omega (settle_s + lead_s)``; both encoder indexes (body angle ~0, where tooth 0 of each gear enters
-contact mid-face) pass at about ``settle_s + lead_s``; each channel records from its index for at
+contact) pass at about ``settle_s + lead_s``; each channel records from its index for at
 least ``output_revs`` output revolutions.
 """
 from __future__ import annotations
@@ -181,8 +181,8 @@ def _truth(case, res, rpm_in, torque, pair, seed, changes, k_mean, c_prime, outp
         "output_revs": output_revs, "rk4_step_s": h,
         "encoders": {"edges_per_rev": EDGES_PER_REV, "clock_hz": CLOCK_HZ, "line_error_rad_rms": case.line_error_rad,
                      "jitter_s_rms": case.jitter_s,
-                     "zero": "first edge = encoder index, at shaft body angle 0 (tooth 0 mid-face at contact start A) "
-                             "minus the encoder's own error there"},
+                     "zero": "first edge = encoder index, at shaft body angle 0 (tooth 0 enters contact: "
+                             "leading face end at A) minus the encoder's own error there"},
         "first_edge_body_angle_rad": res.first_edge_phi,
         "mesh": {"law": "thin-slice, parabolic single-pair stiffness (s_end 0.65)",
                  "c_prime_N_per_mm_um": c_prime / 1e9, "k_mean_N_per_um": k_mean / 1e6,
@@ -190,7 +190,7 @@ def _truth(case, res, rpm_in, torque, pair, seed, changes, k_mean, c_prime, outp
         "te_true_um": {"mean": float(np.mean(te)), "rms_ac": float(np.std(te)), "ptp": float(np.ptp(te))},
         "modes_hz": [[f, z] for f, z in modes_hz(res.rig, g, k_mean)],
         "conventions": "TE = rb1 theta_in - rb2 theta_out on the transverse line of action, um, positive = output "
-                       "lags; tooth k of a gear enters contact (mid-face, point A) at record angle 2 pi k / z; "
+                       "lags; tooth k of a gear enters contact (leading face end at A) at record angle 2 pi k / z; "
                        "deviations are minus material (positive = flank set back = output lags)",
     }
     if changes:

@@ -130,7 +130,7 @@ def make_case_files(folder, case: Case, rpms=(1250, 2000), torque_out_Nm: float 
     folder.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{case.name}-", dir=folder))
     try:
-        for n, r in zip(names, rpms):
+        for n, r in zip(names, rpms, strict=True):
             write_measurement(tmp, n, case, float(r), torque_out_Nm, output_revs=output_revs, pair=pair,
                               seed=seed, **sim_kw)
         (tmp / "DONE").write_text(key_src)
