@@ -28,11 +28,11 @@ import sys
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))  # datasim, under the name the tests use
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from _common import machine_info  # noqa: E402
-from tests.datasim import (Case, DamagedTooth, Eccentricity, EncoderEccentricity, HelixSlope,  # noqa: E402
+from datasim import (Case, DamagedTooth, Eccentricity, EncoderEccentricity, HelixSlope,  # noqa: E402
                            LeadCrowning, LoadRipple, PitchError, TipRelief, TorsionalMode, make_case_files)
 
 log = logging.getLogger("bench_diagnose_independent")
@@ -73,8 +73,10 @@ def cases(pair: str, sizes: tuple[float, ...]) -> list[tuple[str, Case, dict]]:
             a = s * TOL["eccentricity"]
             out.append((f"ecc_{g[:-5]}_{tag}", Case(f"ecc_{g[:-5]}_{tag}", (Eccentricity(g, a, 40.0 + 70 * i),)),
                         {"effect": "eccentricity", "target": g, "size": a, "scale": s}))
+            # a tooth standing proud (negative: the TE drops while it carries the load): set back by more than
+            # the static deflection a tooth only leaves contact, and its size is then a lower bound
             d = s * TOL["pitch_error"]
-            out.append((f"pitch_{g[:-5]}_{tag}", Case(f"pitch_{g[:-5]}_{tag}", (PitchError(g, 5 + 9 * i, d),)),
+            out.append((f"pitch_{g[:-5]}_{tag}", Case(f"pitch_{g[:-5]}_{tag}", (PitchError(g, 5 + 9 * i, -d),)),
                         {"effect": "pitch_error", "target": g, "size": d, "scale": s}))
             enc = g.replace("gear", "encoder")
             a = s * TOL["encoder_eccentricity"]
@@ -93,7 +95,7 @@ def cases(pair: str, sizes: tuple[float, ...]) -> list[tuple[str, Case, dict]]:
     out.append(("clutch_0.5", Case("clutch_0.5", (TorsionalMode("k_clutch", 0.5),)),
                 {"effect": "torsional_mode", "target": None, "size": 0.5, "scale": 1.0}))
     out.append(("ecc_in+pitch_out", Case("ecc_in+pitch_out", (Eccentricity("input_gear", 22.0, 10.0),
-                                                              PitchError("output_gear", 20, 32.0))),
+                                                              PitchError("output_gear", 20, -32.0))),
                 {"effects": [("eccentricity", "input_gear", 22.0), ("pitch_error", "output_gear", 32.0)], "scale": 2}))
     out.append(("enc_out+ecc_out", Case("enc_out+ecc_out", (EncoderEccentricity("output_encoder", 40.0, 0.0),
                                                             Eccentricity("output_gear", 22.0, 120.0))),
@@ -101,6 +103,8 @@ def cases(pair: str, sizes: tuple[float, ...]) -> list[tuple[str, Case, dict]]:
                  "scale": 2}))
     out.append(("clean", Case("clean", ()), {"clean": True}))
     out.append(("load_ripple", Case("load_ripple", (LoadRipple(3.37, 3.0),)), {"unexplained_order_out": 3.37}))
+    out.append(("setback_tooth_2x", Case("setback_tooth_2x", (PitchError("input_gear", 5, 32.0),)),
+                {"report_only": True}))
     out.append(("pitted_tooth", Case("pitted_tooth", (DamagedTooth("input_gear", 11, 20.0),)), {"report_only": True}))
     return out
 

@@ -17,7 +17,8 @@ from gearrom.calibrate.diagnose import diagnose
 from gearrom.calibrate.effects import LIBRARY, Effect, EffectSpec, check_name
 from gearrom.calibrate.fit import FitSettings
 from gearrom.calibrate.microfe import FEMicroModel, with_micro
-from gearrom.calibrate.microgeom import MicroGeometryModel, MicroMods, SliceMicroModel
+from gearrom.calibrate.microgeom import MicroGeometryModel
+from gearrom.excitation.slices import MicroMods, SliceMicroModel
 from gearrom.calibrate.report import DiagnosisResult
 from gearrom.calibrate.rig import RigParams, TorsionalRig
 from gearrom.calibrate.simulator import (ModelChanges, RomSimulator, RunConditions, SimHistory, Simulator,

@@ -21,7 +21,7 @@ from gearrom.calibrate import characterize as chz
 from gearrom.calibrate.effects import LIBRARY
 from gearrom.calibrate.fit import Context, FitSettings, Trial, make_candidates
 from gearrom.calibrate.microfe import FEMicroModel
-from gearrom.calibrate.microgeom import MicroMods
+from gearrom.excitation.slices import MicroMods
 from gearrom.calibrate.model import build_run_model
 from gearrom.calibrate.report import DiagnosisResult, RunTraces
 from gearrom.calibrate.residual import fit_lines, load_run, rms
@@ -213,7 +213,7 @@ def _assemble(ctx: Context, config, sim, D, accepted, steps, after) -> Diagnosis
                           "torque_out_Nm": r.torque_out_Nm, "revs_out": r.revs_out, "duration_s": r.duration_s,
                           "error_before_rms_um": rms(rb) / UM, "error_after_rms_um": rms(ra) / UM,
                           "noise_rms_um": m.noise_m / UM, "mesh_phase_deg": _wrap_deg(m.psi, r.mesh.z1),
-                          "mesh_phase_estimated": m.psi_identifiable, "repairs": len(r.repairs), "orders": tab, **r.info})
+                          "mesh_phase_estimated": m.psi_identifiable, "mesh_phase_model_rad": m.psi, "repairs": len(r.repairs), "orders": tab, **r.info})
         traces.append(RunTraces(r.name, r.rpm_in, r.t_s, r.theta_in_rad, r.y[0], m.nominal[0], mod_after[0], r.fs_hz))
     before = rms(np.concatenate(res_b)) / UM
     after_rms = rms(np.concatenate(res_a)) / UM

@@ -14,7 +14,7 @@ channel's first edge):
 * ``pitch_error`` (target gear): one tooth displaced by ``deviation_um`` (single pitch deviations
   +f and -f on its two flanks' pitches; cumulative deviation f at that tooth). While the tooth
   is in mesh it changes the TE as the static equilibrium of all pairs in contact gives
-  (:mod:`gearrom.calibrate.tooth`: about ``deviation_um`` times its load share when small,
+  (:mod:`gearrom.excitation.slices`: about ``deviation_um`` times its load share when small,
   saturating when the tooth leaves contact). ``tooth_index`` counts teeth from the gear angle 0
   of the record.
 * ``encoder_eccentricity`` (target ``input_encoder`` / ``output_encoder``): a once-per-rev angle

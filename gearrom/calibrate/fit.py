@@ -15,7 +15,7 @@ by each candidate alone (bounded least squares: :func:`scipy.optimize.lsq_linear
 ones, bounded scalar search for the others). Forward selection adds the candidate that removes the
 most residual energy while it is significant (``kappa`` noise variances per parameter, at least
 ``min_fraction`` of what is left and ``min_total_fraction`` of the initial residual, and its TE
-contribution at least ``min_effect_noise`` times the noise rms); a candidate whose explained energy falls short of the best by
+contribution at least ``min_effect_noise`` times the noise rms and ``model_floor_um``); a candidate whose explained energy falls short of the best by
 less than ``max(2 kappa noise variances per parameter, ambiguity x best)`` is reported as not
 separable from it by these data.
 """
@@ -29,7 +29,7 @@ import numpy as np
 from scipy.optimize import lsq_linear
 
 from gearrom.calibrate.effects import LIBRARY, amp_phase
-from gearrom.calibrate.microgeom import MicroMods, SliceMicroModel
+from gearrom.excitation.slices import MicroMods, SliceMicroModel
 from gearrom.calibrate.model import N_TABLE, RunModel
 from gearrom.calibrate.residual import detrend
 
@@ -47,6 +47,10 @@ class FitSettings:
     min_fraction: float = 0.25
     min_total_fraction: float = 0.002
     min_effect_noise: float = 0.5
+    #: smallest TE contribution (rms, um) an effect must explain to be added: independent mesh models of one
+    #: pair (FE tables, thin slices) differ in their mesh-order lines by a few tenths of a um, so a residual
+    #: explained by less lies within the nominal model's own uncertainty
+    model_floor_um: float = 0.15
     kappa: float = 25.0
     ambiguity: float = 0.002
     shared_shaft_phase: bool = False  # True only for runs recorded from a common index (same angle zero)

@@ -20,7 +20,7 @@ from scipy.interpolate import CubicSpline
 from scipy.optimize import minimize, minimize_scalar
 
 from gearrom.calibrate.fit import N_MESH_HARMONICS, UM, Candidate, Context, Trial, _dt
-from gearrom.calibrate.microgeom import MicroMods
+from gearrom.excitation.slices import MicroMods
 from gearrom.calibrate.model import RunModel, realigned
 from gearrom.calibrate.residual import fit_lines, map_to_run
 from gearrom.calibrate.simulator import ModelChanges

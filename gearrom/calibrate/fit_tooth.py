@@ -1,6 +1,6 @@
 """Tooth-local candidate ``pitch_error``: one displaced tooth, fitted on the pulse train it leaves.
 
-The kinematic error pattern is the static TE change of :func:`gearrom.calibrate.tooth.tooth_te`
+The kinematic error pattern is the static TE change of :func:`gearrom.excitation.slices.tooth_te`
 (the tooth followed through its whole engagement, load shared with the other pairs, slice
 stiffness scaled to the mesh stiffness of the micro-geometry model's table, i.e. the FE table when
 the diagnosis runs on it). It passes through the run's drivetrain response ``H(q)`` at every
@@ -25,13 +25,15 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from gearrom.calibrate.fit import Candidate, Context, Trial, _dt, _shaft, _theta, size_uncertainty
-from gearrom.calibrate.microgeom import SliceMicroModel
+from gearrom.excitation.slices import SliceMicroModel
 from gearrom.calibrate.model import N_TABLE
-from gearrom.calibrate.tooth import periodic_sample, tooth_te
+from gearrom.excitation.slices import periodic_sample, tooth_te
 from gearrom.errors import GearromError
 
 UM = 1e-6
 N_SUB = 8  # trial tooth positions per pitch
+#: pulse area per unit deviation (1 in the linear range) below which the fitted size is a lower bound
+LOWER_BOUND_SLOPE = 0.25
 
 
 class PitchError(Candidate):
@@ -141,10 +143,16 @@ class PitchError(Candidate):
         dss = float(R @ R - rest @ rest)
         eps = max(0.01 * abs(d), 0.05)
         col = (ctx.stack(contributions(d + eps)) - ctx.stack(contributions(d - eps))) / (2 * eps)
+        # a tooth set back by more than the static deflection leaves contact: the pulse stops growing with the
+        # deviation, which the data then bound from below only
+        t0 = ctx.models[0].run.torque_out_Nm
+        n_t = self.pattern(ctx, t0, d).size / z
+        slope = (self.pattern(ctx, t0, d + eps).sum() - self.pattern(ctx, t0, d - eps).sum()) / (2 * eps * UM * n_t)
         pitch = 2 * math.pi / z
         tooth = [int(round(p / pitch)) % z for p in pos]
         info = {"fitted_deviation_um": d, "tooth_index": tooth[0], "tooth_index_per_run": tooth, "position_rad": pos, "z": z,
-                "sigma_size_um": size_uncertainty(ctx, rest, col), "linear_deviation_um": d_lin}
+                "sigma_size_um": size_uncertainty(ctx, rest, col), "linear_deviation_um": d_lin,
+                "lower_bound": bool(abs(slope) < LOWER_BOUND_SLOPE)}
         n_par = 2 if ctx.s.shared_shaft_phase else 1 + len(ctx.models)
         return Trial(self, np.array([d]), contrib, dss, n_par, info)
 
@@ -157,6 +165,8 @@ class PitchError(Candidate):
 
     def report(self, x, info):
         out = {"tooth_index": int(info["tooth_index"]), "deviation_um": float(x[0])}
+        if info.get("lower_bound"):
+            out["deviation_is_lower_bound"] = True  # the tooth leaves contact: any larger setback fits as well
         if len(set(info["tooth_index_per_run"])) > 1:
             out["tooth_index_per_run"] = info["tooth_index_per_run"]
         return out

@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from gearrom.calibrate.microgeom import MicroMods, SliceMicroModel
+from gearrom.excitation.slices import MicroMods, SliceMicroModel
 from gearrom.excitation.table import MeshExcitation
 
 log = logging.getLogger(__name__)

@@ -29,7 +29,7 @@ import numba
 import numpy as np
 
 from gearrom.calibrate.microfe import FEMicroModel, with_micro
-from gearrom.calibrate.microgeom import MicroMods, SliceMicroModel
+from gearrom.excitation.slices import MicroMods, SliceMicroModel
 from gearrom.calibrate.simulator import ModelChanges, RunConditions, SimHistory
 from gearrom.errors import CalibrationError
 

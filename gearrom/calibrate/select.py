@@ -9,7 +9,7 @@ from scipy.optimize import lsq_linear
 
 from gearrom.calibrate.fit import Context, Trial
 from gearrom.calibrate.fit_mesh import Micro, RigMode
-from gearrom.calibrate.microgeom import MicroMods
+from gearrom.excitation.slices import MicroMods
 from gearrom.calibrate.model import realigned
 from gearrom.calibrate.residual import map_to_run
 from gearrom.calibrate.simulator import ModelChanges
@@ -157,8 +157,10 @@ def select_effects(ctx: Context, candidates: list, D: list[np.ndarray]) -> tuple
         te_rms = math.sqrt(np.mean([np.mean(c[0] ** 2) for c in best.contrib]))
         noise = math.sqrt(ctx.noise_var)
         step["best_te_rms_um"] = te_rms / 1e-6
-        if best.dss < thresh or te_rms < s.min_effect_noise * noise:
+        if best.dss < thresh or te_rms < max(s.min_effect_noise * noise, s.model_floor_um * 1e-6):
             step["accepted"] = None
+            if te_rms < s.model_floor_um * 1e-6:
+                step["below_model_floor"] = True
             break
         margin = max(2 * s.kappa * ctx.noise_var * best.n_par, s.ambiguity * best.dss)
         # flank modifications act through the same GMF lines; a look-alike modification within 10 % of the

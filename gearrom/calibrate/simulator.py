@@ -38,7 +38,7 @@ from typing import Protocol
 import numpy as np
 
 from gearrom.calibrate.microfe import with_micro
-from gearrom.calibrate.microgeom import MicroMods
+from gearrom.excitation.slices import MicroMods
 from gearrom.errors import CalibrationError
 
 log = logging.getLogger(__name__)
@@ -249,8 +249,10 @@ class RomSimulator:
             ripple = (LoadRipple(order=float(order), amplitude=float(amp) * run.torque_out_Nm,
                                  phase=float(phase) + math.pi / 2),)
         model = self._model(ch.micro, run.torque_out_Nm, tuple(ch.rig_scale))
+        own = Effects.from_pair(self.pair)  # runout and pitch deviations the config declares stay in the model
         res = self._rom.simulate_run(model, run.rpm_in, run.torque_out_Nm, duration_s=run.duration_s,
-                                     effects=Effects(extra=extra, load_ripple=ripple),
+                                     effects=Effects(runout=own.runout, pitch=own.pitch, extra=extra,
+                                                     load_ripple=ripple),
                                      sample_rate_hz=self.sample_rate_hz, settle_s=self.settle_s, theta0=theta0)
         th1 = np.asarray(res.angle("in", "sensor"), float)
         th2 = np.asarray(res.angle("out", "sensor"), float)

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from gearrom.calibrate.microgeom import MicroMods
+from gearrom.excitation.slices import MicroMods
 from gearrom.calibrate.simulator import ModelChanges, RunConditions
 from gearrom.signal import emulate_edges, write_measurement
 

@@ -17,12 +17,15 @@ switching the section on adds only what the diagnosis found (a tip chamfer of th
 the tip). Measurement-only effects (encoder
 eccentricity) and changes with no config key are listed in the file's header, not applied.
 
-Angles: phases and tooth positions refer to the first run's encoder zero taken as the gear's angle
-zero; a recording without an index pulse fixes them only up to that offset, which changes the
-phase of the predicted shaft-order lines, not their amplitudes.
+Angles: the model's gear angle is the record's angle (each channel's first edge) plus the mesh phase
+the diagnosis estimated for the first run; phases and tooth positions are converted with it.
+Recordings that start at the encoder index share that zero; without an index the zero is fixed
+only up to an offset, which changes the phase of the predicted shaft-order lines, not their
+amplitudes.
 """
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -45,26 +48,6 @@ def _micro_base(raw: dict, gear: str, tip_diameter_m: float) -> dict:
             sec["tip_form_diameter_mm"] = tip_diameter_m * 1e3
     sec["enabled"] = True
     return sec
-
-
-def _centre(w: np.ndarray, z: int) -> float:
-    """Circular centroid of a one-revolution pattern, in pitches from angle 0."""
-    ang = np.arange(w.size) * 2 * np.pi / w.size
-    return float(np.arctan2(np.sum(w * np.sin(ang)), np.sum(w * np.cos(ang))) * z / (2 * np.pi) % z)
-
-
-def _rom_tooth(pair, gear: int, tooth_index: int, torque_Nm: float) -> int:
-    """The tooth of the ROM's pitch curve whose TE pulse is centred nearest the diagnosis' tooth pattern."""
-    from gearrom.calibrate.tooth import tooth_te
-    from gearrom.rom.mesh import pitch_curve
-
-    z = pair.z[gear]
-    target = tooth_index + _centre(np.abs(tooth_te(pair, torque_Nm, gear, 1e-6)), z)
-    fp = np.zeros(z)
-    fp[0], fp[1] = 1e-6, -1e-6
-    curve = pitch_curve(pair, gear, fp)
-    c0 = _centre(np.abs(curve - np.median(curve)), z)
-    return int(round(target - c0)) % z
 
 
 def diagnosed_config(summary: dict, config) -> tuple[dict, list[str]]:
@@ -101,17 +84,24 @@ def diagnosed_config(summary: dict, config) -> tuple[dict, list[str]]:
             micro[gear] = _micro_base(raw, gear, cfg.pair.da[GEARS.index(gear)])
         return micro[gear]
 
+    # the model's gear angles are the record's plus the mesh phase of the first run (see diagnose)
+    z1, z2 = cfg.pair.z
+    run0 = summary.get("runs", [{}])[0]
+    psi_deg = (math.degrees(run0["mesh_phase_model_rad"]) if "mesh_phase_model_rad" in run0
+               else float(run0.get("mesh_phase_deg") or 0.0))
+    shift_deg = {"input_gear": psi_deg, "output_gear": psi_deg * z1 / z2}
     for e in summary.get("effects", []):
         name, target, p = e["effect"], e.get("target"), e["parameters"]
         if name == "eccentricity":
             s = sec(target)
             s["runout_um"] = 2.0 * float(p["amplitude_um"])
             # diagnosis: a cos(theta + phi); ROM runout: e sin(theta + phase)
-            s["runout_phase_deg"] = float((p["phase_deg"] + 90.0) % 360.0)
+            s["runout_phase_deg"] = float((p["phase_deg"] + 90.0 - shift_deg[target]) % 360.0)
         elif name == "pitch_error":
             gi = GEARS.index(target)
             z = cfg.pair.z[gi]
-            k = _rom_tooth(cfg.pair, gi, int(p["tooth_index"]), torque)
+            # the ROM follows tooth k from its entry at gear angle 2 pi k / z, as the diagnosis' tooth model
+            k = int(round(p["tooth_index"] + shift_deg[target] * z / 360.0)) % z
             a = -float(p["deviation_um"]) if gi == 0 else float(p["deviation_um"])  # TE sign of the ROM
             s = sec(target)
             fp = list(map(float, s.get("pitch_deviations_um", [0.0] * z)))

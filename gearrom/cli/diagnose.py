@@ -113,7 +113,7 @@ def run(args: argparse.Namespace) -> int:
     sim = default_simulator(args.config, prefer=args.simulator)
     micro = None
     if args.micro_model == "slices":
-        from gearrom.calibrate.microgeom import SliceMicroModel
+        from gearrom.excitation.slices import SliceMicroModel
 
         micro = SliceMicroModel()
         sim.micro_model = micro  # the re-simulations use the same micro-geometry model as the fits

@@ -20,8 +20,9 @@ Non-periodic kinematic error terms (:class:`Effects`), added to ``e``; angles in
   ``kappa = 0.75 d(eps_alpha)/da / (0.75 eps_alpha + 0.25)`` (ISO c_gamma shape) and
   ``d(eps_alpha)/da = -1 / (p_bt sin alpha_wt)``.
 * :class:`PitchDeviations`: single pitch deviations ``f_p`` of every tooth (positive = tooth ahead in its
-  gear's rotation). The cumulative deviation (mean ``f_p`` removed so that it closes) is averaged over
-  the contact-ratio window (load sharing) and enters with sign -1 for the input, +1 for the output gear.
+  gear's rotation). The cumulative deviation (mean ``f_p`` removed so that it closes) displaces each
+  tooth (sign -1 for the input, +1 for the output gear), and each displaced tooth is followed through its
+  engagement by the thin slices at the nominal load (:func:`pitch_curve`).
 * :class:`ExtraTE`: any callable ``fn(theta1, theta2) -> m``.
 * :class:`LoadRipple`: brake torque ripple ``A sin(order theta2 + phase)`` [N m].
 """
@@ -124,20 +125,45 @@ def centre_distance_sensitivity(pair: GearPair) -> float:
     return 0.75 * de / (0.75 * pair.eps_alpha + 0.25)
 
 
-def pitch_curve(pair: GearPair, gear: int, deviations, n_per_pitch: int = 32) -> np.ndarray:
-    """Smoothed cumulative pitch deviation over one revolution of ``gear`` (``z * n_per_pitch`` points) [m]."""
+_PITCH_CACHE: dict = {}
+
+
+def pitch_curve(pair: GearPair, gear: int, deviations, torque_Nm: float, stiffness_scale: float = 1.0) -> np.ndarray:
+    """TE change [m] over one revolution of ``gear`` from the single pitch deviations of its teeth.
+
+    The cumulative deviation of each tooth (mean removed, positive = ahead in its gear's rotation)
+    displaces it along the line of action: by ``-cum`` on the input gear (the output is pushed ahead,
+    the TE drops) and ``+cum`` on the output gear. Each displaced tooth is followed through its
+    engagement by the thin slices (:func:`gearrom.excitation.slices.pitch_te`: load shared with the
+    other pairs, contact lost or load taken over when the deviation exceeds the deflection); the
+    curve's mean is removed. Cached per pair, deviations, torque and stiffness scale.
+
+    Parameters
+    ----------
+    pair : GearPair
+    gear : {0, 1}
+    deviations : sequence of float
+        Single pitch deviation of every tooth, m (z values).
+    torque_Nm : float
+        Output torque of the static state, N m.
+    stiffness_scale : float
+        Factor on the slice stiffness (the mesh table's mean stiffness over the slices').
+    """
+    from gearrom.excitation.slices import pitch_te
+
     z = pair.z[gear]
     fp = np.asarray(deviations, dtype=float)
     if fp.size != z:
         raise ModelError(f"pitch deviations of gear {gear} need {z} values, got {fp.size}")
-    cum = np.cumsum(fp - fp.mean())
-    cum -= cum.mean()
-    steps = np.repeat(cum, n_per_pitch)
-    width = max(1, int(round(pair.eps_gamma * n_per_pitch)))
-    kernel = np.ones(width) / width
-    ext = np.concatenate([steps[-width:], steps, steps[:width]])
-    sm = np.convolve(ext, kernel, mode="same")[width:-width]
-    return sm
+    key = (pair.z, pair.rb, pair.face_width, pair.beta_b, gear, tuple(fp), round(float(torque_Nm), 9),
+           round(float(stiffness_scale), 9))
+    if key not in _PITCH_CACHE:
+        cum = np.cumsum(fp - fp.mean())
+        cum -= cum.mean()
+        curve = pitch_te(pair, max(float(torque_Nm), 1e-9), gear, (-1.0 if gear == 0 else 1.0) * cum,
+                         stiffness_scale=stiffness_scale)
+        _PITCH_CACHE[key] = curve - curve.mean()
+    return _PITCH_CACHE[key]
 
 
 def _call_vectorised(fn, th1: np.ndarray, th2: np.ndarray) -> np.ndarray:
@@ -257,11 +283,15 @@ class MeshLaw:
         self.scale = self.n * self.z1 / (2 * math.pi)
         self.kappa = centre_distance_sensitivity(self.pair)
         self.pitch = []
+        if self.effects.pitch:
+            from gearrom.excitation.slices import MicroMods, SliceMicroModel
+
+            torque = self.f_nom * self.pair.rb[1]
+            k_sl = float(np.mean(SliceMicroModel().excitation(self.pair, [max(torque, 1e-9)], MicroMods()).k[0]))
+            scale = float(np.mean(self.k_grid)) / k_sl if k_sl > 0 else 1.0
         for p in self.effects.pitch:
-            curve = pitch_curve(self.pair, p.gear, p.deviations)
-            sign = -1.0 if p.gear == 0 else 1.0
-            self.pitch.append((p.gear, (sign * curve).tolist() + [float(sign * curve[0])],
-                               curve.size / (2 * math.pi)))
+            curve = pitch_curve(self.pair, p.gear, p.deviations, torque, scale)
+            self.pitch.append((p.gear, curve.tolist() + [float(curve[0])], curve.size / (2 * math.pi)))
 
     def base(self, th1: float) -> tuple[float, float]:
         """``(k, e)`` of the table alone (no effects) at input angle ``th1`` [rad]."""

@@ -80,7 +80,7 @@ def _micro_model(name: str):
         from gearrom.calibrate.microfe import FEMicroModel
 
         return FEMicroModel()
-    from gearrom.calibrate.microgeom import SliceMicroModel
+    from gearrom.excitation.slices import SliceMicroModel
 
     return SliceMicroModel()
 
@@ -104,7 +104,7 @@ def _model(task: SampleTask):
     if st.micro_model == "none" or mods.is_zero:
         return nominal
     from gearrom.calibrate.microfe import with_micro
-    from gearrom.calibrate.microgeom import MicroMods
+    from gearrom.excitation.slices import MicroMods
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

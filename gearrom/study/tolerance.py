@@ -165,7 +165,7 @@ class Deviations:
 
     def mods(self):
         """Flank modifications of the sample (changes the mesh excitation table)."""
-        from gearrom.calibrate.microgeom import MicroMods
+        from gearrom.excitation.slices import MicroMods
 
         return MicroMods(tip_relief=tuple(self.tip_relief), lead_crowning=self.lead_crowning,
                          helix_slope=self.helix_slope)

@@ -36,6 +36,12 @@ def dataset(tmp_path_factory, rigs):
     return make
 
 
+#: Data made by the diagnosis' own model (only the injected effect differs): no model error, so the
+#: model-uncertainty floor of real or independent data (FitSettings.model_floor_um) is off and effects
+#: down to the noise are attributable.
+SELF_MADE = FitSettings(model_floor_um=0.0)
+
+
 @pytest.fixture(scope="session")
 def diagnosed(dataset, rigs):
     """``diagnosed(key, injected, ...)``: the diagnosis of a data set (cached)."""
@@ -44,7 +50,7 @@ def diagnosed(dataset, rigs):
     def run(key, injected=None, config="thesis-helical", settings: FitSettings | None = None, **kw):
         if key not in cache:
             paths = dataset(key, injected, config=config, **kw)
-            cache[key] = diagnose(config, paths, simulator=rigs[config], settings=settings)
+            cache[key] = diagnose(config, paths, simulator=rigs[config], settings=settings or SELF_MADE)
         return cache[key]
 
     return run
@@ -101,7 +107,7 @@ def rom_diagnosed(rom_dataset, rom_sims):
     def run(key, injected, config=ROM_CONFIG, settings: FitSettings | None = None, **kw):
         if key not in cache:
             runs = rom_dataset(key, injected, config=config, **kw)
-            res = diagnose(config, [p for p, _ in runs], simulator=rom_sims(config), settings=settings)
+            res = diagnose(config, [p for p, _ in runs], simulator=rom_sims(config), settings=settings or SELF_MADE)
             cache[key] = (res, [i for _, i in runs])
         return cache[key]
 

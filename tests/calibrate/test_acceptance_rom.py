@@ -76,28 +76,19 @@ def test_once_per_rev_effects(rom_diagnosed, key, inj, effect, target, amp, phas
 
 
 def test_pitch_error(rom_diagnosed):
-    """7 um on tooth 7 of the input gear, through the ROM's cumulative pitch curve (smoothed over eps_gamma
-    pitches: its own load-sharing model, not the diagnosis' thin-slice tooth pattern). The ROM adds the curve
-    with a minus sign for the input gear (``e -= curve``): a TE-equivalent deviation of -7 um. Position:
-    the ROM's displaced tooth is centred at absolute gear angle (k + 1/2) 2 pi / z; the diagnosis counts
-    teeth from the record start, with the pattern of tooth j centred at (j + c0) 2 pi / z."""
-    import numpy as np
-
-    from gearrom.calibrate.tooth import tooth_te
-    from gearrom.config import load_config
-
+    """7 um on tooth 7 of the input gear, through the ROM's pitch curve (single pitch deviations +7/-7 um on
+    teeth 7/8: tooth 7 stands 7 um ahead, the TE drops by up to 7 um while it is in mesh: a TE-equivalent
+    deviation of -7 um). Position: the ROM's tooth k enters contact at absolute gear angle k 2 pi / z, the
+    diagnosis counts teeth from the record start with the same rule."""
     z, k, f = 32, 7, 7e-6
     res, (info,) = rom_diagnosed("pitch_in", RomInjected(pitch=(PitchDeviations(0, one_tooth(z, k, f)),)))
     e = _first(res)
     assert (e["effect"], e["target"]) == ("pitch_error", "input_gear"), res.text()
     assert e["parameters"]["deviation_um"] == pytest.approx(-7.0, rel=0.25)
-    pair = load_config("thesis-rig", check=False).pair
-    w = tooth_te(pair, 120.0, 0, 1e-6)
-    c0 = float(np.sum(w * np.arange(w.size)) / np.sum(w)) / w.size * z  # pattern centre, teeth
     pitch = 2 * math.pi / z
-    true_centre = ((k + 0.5) * pitch - info["theta_first_in"]) % (2 * math.pi)
-    found = ((e["parameters"]["tooth_index"] + c0) * pitch) % (2 * math.pi)
-    assert _phase_err(math.degrees(found), math.degrees(true_centre)) <= 20.0  # about 1.8 pitches
+    true_entry = (k * pitch - info["theta_first_in"]) % (2 * math.pi)
+    found = (e["parameters"]["tooth_index"] * pitch) % (2 * math.pi)
+    assert _phase_err(math.degrees(found), math.degrees(true_entry)) <= 20.0  # about 1.8 pitches
     _halved(res)
 
 

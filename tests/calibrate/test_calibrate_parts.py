@@ -10,7 +10,7 @@ from scipy import signal
 
 from gearrom.calibrate import characterize as chz
 from gearrom.calibrate.effects import amp_phase
-from gearrom.calibrate.microgeom import MicroMods, SliceMicroModel
+from gearrom.excitation.slices import MicroMods, SliceMicroModel
 from gearrom.calibrate.residual import detrend, estimate_mesh_phase, fit_lines, noise_rms
 from gearrom.calibrate.rig import TorsionalRig
 from gearrom.calibrate.simulator import ModelChanges, RunConditions
@@ -65,7 +65,7 @@ def test_tip_relief_start_inside_base_circle_is_rejected(pairs):
 def test_tooth_te_all_teeth_displaced_shift_te_by_the_deviation(pairs):
     """Every tooth displaced by the same small amount shifts the TE by that amount (a rigid rotation of the
     gear): the single-tooth patterns of all teeth sum to the deviation at every angle."""
-    from gearrom.calibrate.tooth import tooth_te
+    from gearrom.excitation.slices import tooth_te
 
     pair = pairs["thesis-helical"]
     z = pair.z[0]
@@ -79,8 +79,8 @@ def test_tooth_te_spur_single_contact_and_saturation(pairs):
     """Spur pair (eps_alpha 1.85): while the displaced tooth carries the load alone (single-pair zone) the TE
     changes by the whole deviation; a tooth set back further than its neighbour's static deflection leaves
     contact, and the TE change saturates at F/k_neighbour - F/k_both (hand statics of two springs)."""
-    from gearrom.calibrate.microgeom import SliceMicroModel
-    from gearrom.calibrate.tooth import tooth_te
+    from gearrom.excitation.slices import SliceMicroModel
+    from gearrom.excitation.slices import tooth_te
 
     pair = pairs["thesis-spur"]
     small = tooth_te(pair, 120.0, 0, 1e-6)

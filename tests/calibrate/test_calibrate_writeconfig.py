@@ -3,7 +3,7 @@
 References: the ROM's own effect model (:mod:`gearrom.rom.mesh`: runout ``e sin(theta + phase)``,
 pitch curve with sign -1 on the input gear) and the diagnosis' conventions
 (:mod:`gearrom.calibrate.effects`: ``a cos(theta + phi)``, tooth pattern of
-:mod:`gearrom.calibrate.tooth`). Each test evaluates what the written config makes the ROM add to
+:mod:`gearrom.excitation.slices`). Each test evaluates what the written config makes the ROM add to
 the TE and compares it with what the diagnosis fitted.
 """
 from __future__ import annotations
@@ -15,6 +15,7 @@ import pytest
 
 from gearrom.calibrate.writeconfig import diagnosed_config, write_config
 from gearrom.config import load_config
+from gearrom.excitation.slices import tooth_te
 from gearrom.rom.mesh import Effects, pitch_curve
 
 
@@ -42,30 +43,22 @@ def test_eccentricity_round_trip_through_rom_effects(tmp_path):
 
 @pytest.mark.parametrize("target,gi", [("input_gear", 0), ("output_gear", 1)])
 def test_pitch_error_round_trip_sign_area_and_position(tmp_path, target, gi):
-    """A +6 um tooth-3 deviation (TE rises while the tooth is in mesh): the ROM's pitch curve from the written
-    config has the same sign and area (6 um x one pitch) and its centre within half a pitch of the
-    diagnosis' tooth pattern."""
-    from gearrom.calibrate.tooth import tooth_te
-
-    s = _summary({"effect": "pitch_error", "target": target, "parameters": {"tooth_index": 3, "deviation_um": 6.0}})
+    """A -6 um deviation of tooth 3 (standing proud: the TE drops while it is in mesh): the ROM's pitch curve from
+    the written config equals the diagnosis' tooth pattern of tooth 3 (same thin-slice tooth model, the
+    config's single pitch deviations turned back into that tooth's displacement), up to the mean that the
+    ROM removes."""
+    s = _summary({"effect": "pitch_error", "target": target, "parameters": {"tooth_index": 3, "deviation_um": -6.0}})
     out = write_config(s, "thesis-rig", tmp_path / "p.toml")
     cfg = load_config(out)
     pair = cfg.pair
     z = pair.z[gi]
     (p,) = Effects.from_pair(pair).pitch
-    curve = (-1.0 if gi == 0 else 1.0) * pitch_curve(pair, gi, p.deviations)  # the TE term of the ROM
-    n = curve.size // z
-    curve = curve - np.median(curve)  # the ROM removes the mean of the closed cumulative curve
-    assert curve.sum() / n == pytest.approx(6e-6, rel=1e-6)
-    pat = tooth_te(pair, 120.0, gi, 6e-6)
+    curve = pitch_curve(pair, gi, p.deviations, 120.0)
+    pat = tooth_te(pair, 120.0, gi, -6e-6)
     pat = np.roll(pat, 3 * (pat.size // z))
-
-    def centre(w, per):
-        ang = np.arange(w.size) * 2 * math.pi / w.size
-        return math.atan2(np.sum(w * np.sin(ang)), np.sum(w * np.cos(ang))) * z / (2 * math.pi) % z
-
-    d = (centre(curve, n) - centre(pat, pat.size // z) + z / 2) % z - z / 2
-    assert abs(d) <= 0.5
+    # the ROM closes the cumulative curve (mean deviation removed): every tooth also moves by +6/z um
+    np.testing.assert_allclose(curve - np.median(curve), pat - np.median(pat), atol=0.01e-6)
+    assert np.min(curve - np.median(curve)) < -2e-6
 
 
 def test_flank_and_rig_changes_add_to_the_nominal_values(tmp_path):
