@@ -180,16 +180,18 @@ def size_uncertainty(ctx: Context, rest: np.ndarray, A: np.ndarray) -> np.ndarra
     return sig if np.ndim(A) > 1 else float(sig[0])
 
 
-def _dt(a: np.ndarray, axis: int = -1) -> np.ndarray:
+def detrend_like_data(a: np.ndarray, axis: int = -1) -> np.ndarray:
     """The linear detrend every measured signal went through (offset and slope over the record)."""
     return detrend(a, axis=axis)
 
 
-def _shaft(target: str) -> str:
+def shaft_of(target: str) -> str:
+    """``"input"`` or ``"output"``: the shaft of an effect target (gear or encoder)."""
     return "input" if target.startswith("input") else "output"
 
 
-def _theta(m: RunModel, shaft: str) -> np.ndarray:
+def shaft_angle(m: RunModel, shaft: str) -> np.ndarray:
+    """Record angle of ``shaft`` on the run's working grid, rad."""
     return m.run.theta_in_rad if shaft == "input" else m.run.theta_out_rad
 
 
@@ -204,7 +206,7 @@ class OncePerRev(Candidate):
     """
 
     def _cols(self, ctx: Context) -> list:
-        shaft = _shaft(self.target)
+        shaft = shaft_of(self.target)
         shared = ctx.s.shared_shaft_phase
         nr = len(ctx.models)
         cols = []
@@ -212,9 +214,9 @@ class OncePerRev(Candidate):
             per = []
             for m in ctx.models:
                 if self.name == "eccentricity":
-                    per.append(_dt(m.response(shaft, {1: basis * UM})))
+                    per.append(detrend_like_data(m.response(shaft, {1: basis * UM})))
                 else:
-                    v = _dt((basis * UM * np.exp(1j * _theta(m, shaft))).real)
+                    v = detrend_like_data((basis * UM * np.exp(1j * shaft_angle(m, shaft))).real)
                     z = np.zeros_like(v)
                     per.append(np.vstack([v, v, z]) if shaft == "input" else np.vstack([v, z, -v]))
             if shared:
@@ -255,7 +257,7 @@ class OncePerRev(Candidate):
             a, ph = pairs[run]
         th = np.arange(N_TABLE) * 2 * math.pi / N_TABLE
         tab = a * UM * np.cos(th + math.radians(ph))
-        return {"kinematic_in" if _shaft(self.target) == "input" else "kinematic_out": tab}
+        return {"kinematic_in" if shaft_of(self.target) == "input" else "kinematic_out": tab}
 
     def measurement_term(self, x, info, ctx):
         if self.name != "encoder_eccentricity":

@@ -19,7 +19,7 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 from scipy.optimize import minimize, minimize_scalar
 
-from gearrom.calibrate.fit import N_MESH_HARMONICS, UM, Candidate, Context, Trial, _dt
+from gearrom.calibrate.fit import N_MESH_HARMONICS, UM, Candidate, Context, Trial, detrend_like_data
 from gearrom.excitation.slices import MicroMods
 from gearrom.calibrate.model import RunModel, realigned
 from gearrom.calibrate.residual import fit_lines, map_to_run
@@ -136,7 +136,7 @@ class Micro(Candidate):
         out = []
         for m, (W, Hh) in zip(ctx.models, waves):
             c = self._coeffs(ctx, m, Hh, value, psi_free)
-            out.append(_dt((c @ W).real))
+            out.append(detrend_like_data((c @ W).real))
         return out
 
     def fit(self, ctx, R):
@@ -157,7 +157,7 @@ class Micro(Candidate):
                 for row in range(3):
                     for h in range(N_MESH_HARMONICS):
                         per = [np.zeros((3, m.run.t_s.size)) for m in ctx.models]
-                        per[r][row] = _dt(W[h].real if part == "re" else -W[h].imag)
+                        per[r][row] = detrend_like_data(W[h].real if part == "re" else -W[h].imag)
                         cols.append(ctx.stack(per))
         Phi = np.column_stack(cols)
         G, b = Phi.T @ Phi, Phi.T @ R

@@ -24,7 +24,8 @@ import math
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from gearrom.calibrate.fit import Candidate, Context, Trial, _dt, _shaft, _theta, size_uncertainty
+from gearrom.calibrate.fit import (Candidate, Context, Trial, detrend_like_data, shaft_angle, shaft_of,
+                                   size_uncertainty)
 from gearrom.excitation.slices import SliceMicroModel
 from gearrom.calibrate.model import N_TABLE
 from gearrom.excitation.slices import periodic_sample, tooth_te
@@ -72,8 +73,8 @@ class PitchError(Candidate):
     def _basis(self, r: int, m) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Orders, response ``H`` (3, Q) and ``exp(i q theta)`` (n, Q) of run ``r``."""
         if r not in self._bases:
-            orders, H = m.H[_shaft(self.target)]
-            self._bases[r] = (orders, H, np.exp(1j * np.outer(_theta(m, _shaft(self.target)), orders)))
+            orders, H = m.H[shaft_of(self.target)]
+            self._bases[r] = (orders, H, np.exp(1j * np.outer(shaft_angle(m, shaft_of(self.target)), orders)))
         return self._bases[r]
 
     def _coeffs(self, r: int, m, pat: np.ndarray) -> np.ndarray:
@@ -84,7 +85,7 @@ class PitchError(Candidate):
 
     def _predict(self, r: int, m, G: np.ndarray, shift: float) -> np.ndarray:
         orders, _, B = self._basis(r, m)
-        return _dt((B @ (G * np.exp(-1j * orders * shift)[None, :]).T).real.T, axis=1)
+        return detrend_like_data((B @ (G * np.exp(-1j * orders * shift)[None, :]).T).real.T, axis=1)
 
     # ------------------------------------------------------------------ fit
     def fit(self, ctx, R):
@@ -176,4 +177,4 @@ class PitchError(Candidate):
         pat = self.pattern(ctx, m.run.torque_out_Nm, float(x[0]))
         th = np.arange(N_TABLE) * 2 * math.pi / N_TABLE
         tab = periodic_sample(pat, th, info["position_rad"][run])
-        return {"kinematic_in" if _shaft(self.target) == "input" else "kinematic_out": tab - tab.mean()}
+        return {"kinematic_in" if shaft_of(self.target) == "input" else "kinematic_out": tab - tab.mean()}
