@@ -169,6 +169,9 @@ def judge(summary: dict, exp: dict) -> dict:
             causes.append(f"error after {after:.3g} um > half of before {before:.3g} um")
         if exp.get("scale", 1) < 1:
             ok = None if ok is False else ok  # below the tolerance: reported, not judged
+    if not eff and any(st.get("below_model_floor") for st in summary.get("selection", [])):
+        causes.append("the best candidate's TE contribution was below the model-uncertainty floor "
+                      "(FitSettings.model_floor_um)")
     out["pass"] = ok
     out["causes"] = causes
     return out
