@@ -81,33 +81,6 @@ def split_test(ctx: Context, R: np.ndarray, shaft: str) -> tuple[str, float]:
     return ("real" if share > SPLIT_REAL else "none" if share < SPLIT_NONE else "unclear"), share
 
 
-ONCE_PER_REV = ("eccentricity", "encoder_eccentricity")
-
-
-def _joint_partner_gain(ctx: Context, accepted: list[Trial], trials: list[Trial], R0: np.ndarray, ss: float) -> None:
-    """Score a once-per-rev candidate whose partner on the same shaft is accepted by what the *joint* fit gains.
-
-    Runout and encoder eccentricity of one shaft put the same line into the TE; only the channels tell
-    them apart (the other shaft moves with a runout). Once one of them has taken the line, the other
-    explains little of what is left on its own, although the two together split the line exactly: the
-    candidate's explained energy becomes the reduction of the residual by the joint refit.
-    """
-    for i, t in enumerate(trials):
-        if t.cand.name not in ONCE_PER_REV:
-            continue
-        shaft = t.cand.target.split("_")[0]
-        partner = [a for a in accepted if a.cand.name in ONCE_PER_REV and a.cand.name != t.cand.name
-                   and a.cand.target.split("_")[0] == shaft]
-        if not partner:
-            continue
-        joint = joint_refit(ctx, accepted + [t], R0)
-        rest = R0 - sum((ctx.stack(u.contrib) for u in joint), np.zeros_like(R0))
-        gain = ss - float(rest @ rest)
-        if gain > t.dss:
-            mine = joint[-1]
-            trials[i] = Trial(t.cand, mine.x, mine.contrib, gain, t.n_par, {**t.info, **mine.info, "joint_gain": True})
-
-
 def _apply_split_test(ctx: Context, R: np.ndarray, trials: list[Trial]) -> None:
     """Reorder a close call between runout and encoder eccentricity of one shaft by :func:`split_test`."""
     if len(trials) < 2:
@@ -162,7 +135,6 @@ def select_effects(ctx: Context, candidates: list, D: list[np.ndarray]) -> tuple
                 trials.append(t)
         if not trials:
             break
-        _joint_partner_gain(ctx, accepted, trials, R0, ss)
         trials.sort(key=lambda t: -t.dss)
         floor = max(s.kappa * ctx.noise_var, s.min_total_fraction * float(R0 @ R0), s.min_fraction * ss)
         # the leading flank-modification candidates get re-simulated sizes: the linearized ranking of

@@ -82,21 +82,3 @@ def test_clean_record_gets_no_effect(tmp_path_factory):
         warnings.simplefilter("ignore")
         s = diagnose("thesis-rig", files).summary
     assert s["effects"] == [], s["effects"]
-
-
-def test_runout_and_encoder_eccentricity_on_one_shaft_are_split(tmp_path_factory):
-    """Output-gear runout 22 um at 120 deg plus output-encoder eccentricity 40 um at 0 deg: one TE line of
-    34.7 um (their vector sum); the input channel moves with the runout only, which splits the line. Both
-    are reported, each within 25 % and 10 deg of the truth."""
-    case = datasim.Case("enc_out+ecc_out", (datasim.EncoderEccentricity("output_encoder", 40.0, 0.0),
-                                            datasim.Eccentricity("output_gear", 22.0, 120.0)))
-    files = datasim.make_case_files(tmp_path_factory.mktemp("split"), case, rpms=RPMS[:2])
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        s = diagnose("thesis-rig", files).summary
-    found = {(e["effect"], e["target"]): e["parameters"] for e in s["effects"]}
-    for key, amp, ph in ((("eccentricity", "output_gear"), 22.0, 120.0),
-                         (("encoder_eccentricity", "output_encoder"), 40.0, 0.0)):
-        assert key in found, s["effects"]
-        assert found[key]["amplitude_um"] == pytest.approx(amp, rel=0.25)
-        assert abs((found[key]["phase_deg"] - ph + 180) % 360 - 180) < 10.0
