@@ -1,6 +1,6 @@
 """The effect library: what can be missing from the nominal model, its parameters, limits and signature.
 
-Canonical names (issue 6): ``eccentricity``, ``pitch_error``, ``tip_relief``, ``lead_crowning``,
+Canonical names: ``eccentricity``, ``pitch_error``, ``tip_relief``, ``lead_crowning``,
 ``helix_slope``, ``encoder_eccentricity``, ``torsional_mode``.
 
 Conventions (all amplitudes are transmission-error equivalents along the transverse line of
