@@ -29,7 +29,7 @@ import numpy as np
 from scipy.optimize import lsq_linear
 
 from gearrom.calibrate.effects import LIBRARY, amp_phase
-from gearrom.excitation.slices import MicroMods, SliceMicroModel
+from gearrom.excitation.slices import MicroMods
 from gearrom.calibrate.model import N_TABLE, RunModel
 from gearrom.calibrate.residual import detrend
 
@@ -168,7 +168,7 @@ def size_uncertainty(ctx: Context, rest: np.ndarray, A: np.ndarray) -> np.ndarra
     the correlation factor of the TE residual of the first run (:func:`correlation_factor`): the
     residual holds whatever the model still misses, so the figure covers that misfit, not only noise.
     """
-    A2 = np.atleast_2d(np.asarray(A, float).T).T if np.ndim(A) == 1 else np.asarray(A, float)
+    A2 = np.asarray(A, float).reshape(len(A), -1)  # one column per parameter
     n0 = ctx.models[0].run.t_s.size
     s2 = float(rest @ rest) / max(rest.size - A2.shape[1], 1)
     c = correlation_factor(rest[:n0])

@@ -14,8 +14,9 @@ is then fitted by a bounded scalar search on the non-linear pattern (a tooth set
 contact, one set forward takes the load of its neighbours), on the shaft orders below
 ``z / (2 eps_gamma)`` (at least 3): there the pulse is set by its area (deviation x one pitch in
 the linear range), whatever model of load sharing made it, while its shape at higher orders
-depends on that model. The prediction and the energy it explains use the whole pulse. Runs recorded from different angle zeros
-(``FitSettings.shared_shaft_phase`` False) get a position each; the deviation is common.
+depends on that model. The prediction and the energy it explains use the whole pulse. Runs recorded
+from different angle zeros (``FitSettings.shared_shaft_phase`` False) get a position each; the
+deviation is common.
 """
 from __future__ import annotations
 
@@ -26,10 +27,9 @@ from scipy.optimize import minimize_scalar
 
 from gearrom.calibrate.fit import (Candidate, Context, Trial, detrend_like_data, shaft_angle, shaft_of,
                                    size_uncertainty)
-from gearrom.excitation.slices import SliceMicroModel
 from gearrom.calibrate.model import N_TABLE
-from gearrom.excitation.slices import periodic_sample, tooth_te
 from gearrom.errors import GearromError
+from gearrom.excitation.slices import periodic_sample, stiffness_scale, tooth_te
 
 UM = 1e-6
 N_SUB = 8  # trial tooth positions per pitch
@@ -43,6 +43,7 @@ class PitchError(Candidate):
     def __init__(self, name: str, target: str):
         super().__init__(name, target)
         self._patterns: dict = {}
+        self._scales: dict = {}
         self._bases: dict = {}
 
     # ------------------------------------------------------------------ model
@@ -50,17 +51,14 @@ class PitchError(Candidate):
         return 0 if self.target == "input_gear" else 1
 
     def _scale(self, ctx: Context, torque: float) -> float:
-        key = ("scale", round(torque, 6))
-        if key not in self._patterns:
-            scale = 1.0
+        key = round(torque, 6)
+        if key not in self._scales:
             try:
-                k_ref = np.mean(ctx.micro_model.excitation(ctx.pair, [torque], ctx.micro_nominal).k[0])
-                k_sl = np.mean(SliceMicroModel().excitation(ctx.pair, [torque], ctx.micro_nominal).k[0])
-                scale = float(k_ref / k_sl) if k_sl > 0 and np.isfinite(k_ref) else 1.0
+                k_ref = float(np.mean(ctx.micro_model.excitation(ctx.pair, [torque], ctx.micro_nominal).k[0]))
+                self._scales[key] = stiffness_scale(ctx.pair, torque, k_ref, ctx.micro_nominal)
             except (GearromError, AttributeError):
-                pass
-            self._patterns[key] = scale
-        return self._patterns[key]
+                self._scales[key] = 1.0
+        return self._scales[key]
 
     def pattern(self, ctx: Context, torque: float, deviation_um: float) -> np.ndarray:
         """Static TE change (m) over one revolution of the gear, tooth 0 displaced by ``deviation_um``."""

@@ -28,7 +28,6 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-import numpy as np
 
 from gearrom.calibrate.effects import GEARS
 from gearrom.errors import CalibrationError
@@ -77,7 +76,6 @@ def diagnosed_config(summary: dict, config) -> tuple[dict, list[str]]:
                  "description": f"{cfg.name} with the effects found by gearrom diagnose"}
     micro: dict[str, dict] = {}
     notes: list[str] = []
-    torque = float(summary.get("runs", [{}])[0].get("torque_out_Nm") or cfg.operating.torque_out_Nm or 100.0)
 
     def sec(gear: str) -> dict:
         if gear not in micro:

@@ -230,6 +230,13 @@ def _gaps(pair: GearPair, s: np.ndarray, y: np.ndarray, mods: MicroMods) -> np.n
 # either gear; tooth 0 enters contact (start of the path, face end ``y = 0``) at angle 0 of its gear.
 
 
+def stiffness_scale(pair: GearPair, torque_Nm: float, k_mean: float, mods: MicroMods | None = None) -> float:
+    """Factor on the slice stiffness that gives the mean mesh stiffness ``k_mean`` (N/m) of another model
+    (e.g. the FE table) at ``torque_Nm``; 1 when either mean is not positive and finite."""
+    k_sl = float(np.mean(SliceMicroModel().excitation(pair, [max(float(torque_Nm), 1e-9)], mods or MicroMods()).k[0]))
+    return float(k_mean) / k_sl if k_sl > 0 and np.isfinite(k_mean) and k_mean > 0 else 1.0
+
+
 def pitch_te(pair: GearPair, torque_Nm: float, gear: int, tooth_gaps_m, mods: MicroMods | None = None, *,
              model: SliceMicroModel | None = None, stiffness_scale: float = 1.0) -> np.ndarray:
     """Static TE change over one revolution of ``gear`` from deviations of its individual teeth.

@@ -284,11 +284,10 @@ class MeshLaw:
         self.kappa = centre_distance_sensitivity(self.pair)
         self.pitch = []
         if self.effects.pitch:
-            from gearrom.excitation.slices import MicroMods, SliceMicroModel
+            from gearrom.excitation.slices import stiffness_scale
 
             torque = self.f_nom * self.pair.rb[1]
-            k_sl = float(np.mean(SliceMicroModel().excitation(self.pair, [max(torque, 1e-9)], MicroMods()).k[0]))
-            scale = float(np.mean(self.k_grid)) / k_sl if k_sl > 0 else 1.0
+            scale = stiffness_scale(self.pair, torque, float(np.mean(self.k_grid)))
         for p in self.effects.pitch:
             curve = pitch_curve(self.pair, p.gear, p.deviations, torque, scale)
             self.pitch.append((p.gear, curve.tolist() + [float(curve[0])], curve.size / (2 * math.pi)))
