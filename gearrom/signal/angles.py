@@ -18,7 +18,15 @@ import numpy as np
 from gearrom.errors import MeasurementError
 from gearrom.signal.edges import EdgeStream, ReadSettings, Repair, check_time_resolution
 from gearrom.signal.measurement import CHANNELS, MeasurementMeta, read_meta
-from gearrom.signal.readers import AngleChunk, EdgeChunk, first_bad, fmt_t, iter_chunks, row_label
+from gearrom.signal.readers import (
+    AngleChunk,
+    EdgeChunk,
+    first_bad,
+    fmt_t,
+    iter_chunks,
+    row_label,
+)
+from gearrom.signal.trim import ForwardFilter, edge_file_runs, report_run, windowed
 
 log = logging.getLogger(__name__)
 
@@ -105,17 +113,23 @@ def _load_edges(meta: MeasurementMeta, settings: ReadSettings) -> AngleData:
     streams = {ch: EdgeStream(ch, meta.encoders[ch].counts_per_shaft_rev, fs, file, label, settings,
                               period=settings.edge_period or 1, timing_resolution_s=res_s) for ch in CHANNELS}
     t0, t1 = settings.t_start_s, settings.t_end_s
+    info: dict = {"timing_resolution_s": res_s}
+    runs = edge_file_runs(meta, settings) if settings.trim else None
+    keep = {}
+    if runs is not None:
+        keep = {ch: ForwardFilter(runs, ch) for ch in CHANNELS}
+        info["trimmed"] = []
+        info["direction"] = {ch: {"reversed_sign": r.reversed_sign, "jitter_edges_dropped": r.jitter_edges}
+                             for ch, r in runs.runs.items()}
+        for ch, r in runs.runs.items():
+            report_run(file, ch, r, info)
     for chunk in iter_chunks(meta, settings.chunk_rows, allow_outside_data=settings.allow_outside_data):
         assert isinstance(chunk, EdgeChunk)
-        if t0 is not None or t1 is not None:
-            m = (chunk.t >= (t0 if t0 is not None else -np.inf)) & (chunk.t < (t1 if t1 is not None else np.inf))
-            if not m.all():
-                chunk = EdgeChunk(chunk.channel, chunk.t[m], chunk.row[m],
-                                  None if chunk.direction is None else chunk.direction[m])
-            if not chunk.t.size:
-                continue
-        streams[chunk.channel].feed(chunk)
-    info = {"timing_resolution_s": res_s}
+        chunk = windowed(chunk, settings)
+        if keep:
+            chunk = keep[chunk.channel](chunk)
+        if chunk.t.size:
+            streams[chunk.channel].feed(chunk)
     if t0 is not None or t1 is not None:
         info["window_s"] = [t0, t1]
     return combine_streams(meta, streams, fs, info=info)

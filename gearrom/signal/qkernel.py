@@ -179,51 +179,58 @@ def decode_chunk(a, b, z, t, row0, rate, levels, k, interp, si, sf, out_t, out_s
 
 
 @nb.njit(**_JIT)
-def new_positions(sign, rev):
+def new_positions(sign, rev, state):
     """Edges reaching a new largest position, and whether the position fell back by two edges or more
     between each of them and the previous one.
 
+    ``state`` (int64[5]: position, largest position, edges seen, fallen back by two since the last
+    new position, new positions so far) carries over from chunk to chunk; zeros at the start of a
+    channel.
+
     Returns ``(new, brk, first_deep)``: indices of the new-position edges, reversal flag per such edge
-    (False for the first), index of the first edge two or more below the running maximum (-1: none).
+    (False for the channel's first), index of the first edge two or more below the running maximum
+    (-1: none); indices are into this chunk.
     """
     n = sign.size
     new = np.empty(n, np.int64)
     brk = np.zeros(n, np.bool_)
-    pos = 0
-    mx = 0  # largest position so far (the start position counts only for the first edge)
+    pos, mx, seen, deep_since, n_new = state[0], state[1], state[2], state[3] != 0, state[4]
     first_deep = -1
-    deep_since = False
     m = 0
     for i in range(n):
         s = -np.int64(sign[i]) if rev else np.int64(sign[i])
         pos += s
         if pos > mx:
             new[m] = i
-            brk[m] = deep_since and m > 0
+            brk[m] = deep_since and m + n_new > 0
             m += 1
             deep_since = False
-        mx = pos if i == 0 or pos > mx else mx
+        # the start position counts as reached only for the channel's first edge
+        mx = pos if (seen == 0 and i == 0) or pos > mx else mx
         if mx - pos >= 2:
             deep_since = True
             if first_deep < 0:
                 first_deep = i
+    state[0], state[1], state[2], state[3], state[4] = pos, mx, seen + n, 1 if deep_since else 0, n_new + m
     return new[:m], brk[:m], first_deep
 
 
 @nb.njit(**_JIT)
-def longest_stretch(tn, brk, standstill_s, trim):
-    """First longest (by duration) stretch of ``tn`` between breaks: ``(start, stop)`` indices.
+def longest_stretch(t, new, brk, standstill_s, trim):
+    """First longest (by duration) stretch of the edges ``new`` between breaks: ``(start, stop)``
+    indices into ``new``.
 
-    A stretch breaks before edge ``m`` where ``brk[m]`` or, with ``trim``, where the time since the
-    previous edge exceeds ``standstill_s``.
+    A stretch breaks before edge ``new[m]`` where ``brk[m]`` or, with ``trim``, where the time since
+    the previous edge exceeds ``standstill_s``. ``t`` holds the times of all edges.
     """
-    best_a, best_b = 0, tn.size
+    n = new.size
+    best_a, best_b = 0, n
     best = -np.inf
     a = 0
-    for m in range(1, tn.size + 1):
-        if m < tn.size and not (brk[m] or (trim and tn[m] - tn[m - 1] > standstill_s)):
+    for m in range(1, n + 1):
+        if m < n and not (brk[m] or (trim and t[new[m]] - t[new[m - 1]] > standstill_s)):
             continue
-        dur = tn[m - 1] - tn[a]
+        dur = t[new[m - 1]] - t[new[a]]
         if dur > best:
             best, best_a, best_b = dur, a, m
         a = m

@@ -19,10 +19,11 @@ import numpy as np
 from gearrom.errors import MeasurementError
 from gearrom.signal.edges import EdgeStream, Repair
 from gearrom.signal.measurement import CHANNELS, MeasurementMeta
-from gearrom.signal.quadrature import QuadratureDecoder, select_run
+from gearrom.signal.quadrature import QuadratureDecoder
 from gearrom.signal.readers import EdgeChunk
 from gearrom.signal.samples import iter_samples
 from gearrom.signal.settings import ReadSettings
+from gearrom.signal.trim import report_run, select_run
 
 log = logging.getLogger(__name__)
 
@@ -141,18 +142,12 @@ def load_quadrature(meta: MeasurementMeta, settings: ReadSettings):
         if step / shortest > TIMING_WARN_RATIO:
             log.warning("%s: channel %r: sample step %.3g s is %.0f %% of the shortest edge interval: expect illegal "
                         "transitions (missed edges)", file, ch, step, 100 * step / shortest)
-        for c in rs.cut:
-            info["trimmed"].append({"channel": ch, **c})
-            log.info("%s: channel %r: cut t=%.6g..%.6g s (%d edges): %s", file, ch, c["t_from_s"], c["t_to_s"],
-                     c["edges"], c["reason"])
+        report_run(file, ch, rs, info)
         if d.report.illegal:
             repairs.append(Repair("illegal_transition", ch, f"{file}: sample (first at t={d.report.illegal_first_t:.9g} s)",
                                   float(d.report.illegal_first_t), d.report.illegal,
                                   "both A and B changed within one sample; counted as two edges in the direction "
                                   "of the last legal step"))
-        if rs.jitter_edges:
-            log.info("%s: channel %r: %d back-and-forth edges (jitter on one line) not counted", file, ch,
-                     rs.jitter_edges)
         del t, sign, rows, tk, span, rs
     if settings.strict and repairs:
         raise MeasurementError(repairs[0].message() + " (strict mode: no repairs allowed)")

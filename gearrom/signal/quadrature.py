@@ -19,9 +19,9 @@ interpolation cannot move an edge outside its sample interval.
 The decoding is one compiled pass per chunk (:func:`gearrom.signal.qkernel.decode_chunk`); the
 state (levels, phase, position, last sample) carries over, so chunk boundaries change nothing.
 
-:func:`select_run` then picks, per channel, the longest stretch of forward rotation without
-standstill, so that start-ups from rest, coast-downs, jitter at standstill and direction reversals
-are cut instead of stopping the whole record.
+:func:`gearrom.signal.trim.select_run` then picks, per channel, the longest stretch of forward
+rotation without standstill, so that start-ups from rest, coast-downs, jitter at standstill and
+direction reversals are cut instead of stopping the whole record.
 """
 from __future__ import annotations
 
@@ -64,6 +64,9 @@ class DecodeReport:
     index_positions: list = field(default_factory=list)
     sample_step_s: float = math.nan
     levels: dict = field(default_factory=dict)
+
+
+_EMPTY = (np.empty(0), np.empty(0, np.int8), np.empty(0, np.int64))
 
 
 class QuadratureDecoder:
@@ -112,22 +115,26 @@ class QuadratureDecoder:
 
     def _new_output(self) -> None:
         self.n = 0
-        self.t, self.sign, self.row = np.empty(0), np.empty(0, np.int8), np.empty(0, np.int64)
+        self._parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+        self._st, self._ss, self._sr = _EMPTY
 
     def _reserve(self, m: int) -> None:
-        """Room for the edges of ``m`` more samples (at most two per sample).
+        """Scratch room for the edges of a chunk of ``m`` samples (at most two per sample).
 
-        The arrays grow in place (``ndarray.resize``: a reallocation, which for large blocks remaps
-        the pages instead of copying them), so the edges are never held twice; capacity not yet
-        written costs no resident memory.
+        A chunk decodes into scratch arrays that are reused from chunk to chunk; only its edges are
+        copied out (:meth:`_keep`). The decoded record therefore takes its own size plus one
+        chunk's scratch, and no memory is written for capacity that no edge fills.
         """
-        need = self.n + 2 * m
-        if self.t.size < need:
-            cap = max(need, int(1.5 * self.t.size))
-            for arr in (self.t, self.sign, self.row):
-                arr.resize(cap, refcheck=False)
+        if self._st.size < 2 * m:
+            self._st, self._ss, self._sr = np.empty(2 * m), np.empty(2 * m, np.int8), np.empty(2 * m, np.int64)
         if self._zbuf.size < m:
             self._zbuf = np.empty(m, np.int64)
+
+    def _keep(self, n: int) -> None:
+        """Copy the ``n`` edges of the last chunk out of the scratch arrays."""
+        if n:
+            self._parts.append((self._st[:n].copy(), self._ss[:n].copy(), self._sr[:n].copy()))
+            self.n += n
 
     def feed(self, t: np.ndarray | None, a: np.ndarray, b: np.ndarray, z: np.ndarray | None, row0: int,
              rate_hz: float | None = None) -> None:
@@ -166,11 +173,10 @@ class QuadratureDecoder:
         else:
             z = a[:0]
         self._reserve(m)
-        n0 = self.n
         n, nz = qk.decode_chunk(a, b, z, np.ascontiguousarray(t, np.float64), int(row0),
                                 float(rate_hz or 0.0), self._levels, int(self.k), self.edge_time == "interpolate",
-                                self._si, self._sf, self.t[n0:], self.sign[n0:], self.row[n0:], self._zbuf)
-        self.n = n0 + n
+                                self._si, self._sf, self._st, self._ss, self._sr, self._zbuf)
+        self._keep(n)
         if nz:
             self.report.index_positions.extend(self._zbuf[:nz].tolist())
         self.report.illegal = int(self._si[qk.ILLEGAL])
@@ -184,57 +190,12 @@ class QuadratureDecoder:
         when the caller drops them); a later call returns the edges decoded after this one.
         """
         self.report.sample_step_s = float(np.median(self._steps)) if self._steps else math.nan
-        out = self.t, self.sign, self.row
-        for arr in out:
-            arr.resize(self.n, refcheck=False)  # give back the unused capacity
+        parts = self._parts
+        if len(parts) == 1:
+            out = parts[0]
+        else:
+            out = tuple(np.concatenate([p[i] for p in parts]) if parts else empty
+                        for i, empty in enumerate(_EMPTY))
         self._zbuf = np.empty(0, np.int64)
         self._new_output()
         return out
-
-
-@dataclass(frozen=True)
-class RunSelection:
-    """The stretch of forward rotation kept from one channel, and what was cut."""
-
-    keep: np.ndarray          # indices of the kept edges
-    reversed_sign: bool       # the channel counts backward for forward rotation (sign flipped)
-    cut: tuple                # dicts: t_from_s, t_to_s, edges, reason
-    jitter_edges: int         # back-and-forth edges dropped inside the kept stretch
-
-
-def select_run(t: np.ndarray, sign: np.ndarray, *, period: int, min_speed_fraction: float,
-               standstill_s: float | None = None, trim: bool = True) -> RunSelection:
-    """Forward edges of the longest stretch without standstill or reversal (by duration).
-
-    The direction with the larger net count is forward. Only edges that reach a new largest
-    position count (a back-and-forth over one line, jitter at rest, adds no edge). A stretch ends
-    where the position falls back by two edges or more (a reversal) or where no new edge comes
-    for longer than ``standstill_s`` (default: the edge interval at ``min_speed_fraction`` of the
-    highest speed of the record, over ``period`` edges). With ``trim=False`` the whole record is
-    one stretch and a reversal is an error.
-    """
-    rev = int(sign.sum(dtype=np.int64)) < 0
-    new, brk, first_deep = qk.new_positions(np.ascontiguousarray(sign), rev)
-    if new.size < 2 * period + 2:
-        raise MeasurementError(f"only {new.size} forward edges")
-    if not trim and first_deep >= 0:
-        raise MeasurementError(f"direction reversal at t={t[first_deep]:.9g} s (trimming disabled)")
-    tn = t[new]
-    if standstill_s is None:
-        span = tn[period:] - tn[:-period]
-        span = span[span > 0]
-        fastest = np.percentile(span, 1) / period if span.size else np.inf
-        del span
-        standstill_s = fastest / min_speed_fraction
-    a, b = qk.longest_stretch(tn, brk, float(standstill_s), bool(trim))
-    keep = new[a:b]
-    cut = []
-    if trim:
-        if keep[0] > 0:
-            cut.append({"t_from_s": float(t[0]), "t_to_s": float(t[keep[0]]), "edges": int(keep[0]),
-                        "reason": "standstill, jitter or reversal before the run"})
-        if keep[-1] < t.size - 1:
-            cut.append({"t_from_s": float(t[keep[-1]]), "t_to_s": float(t[-1]), "edges": int(t.size - 1 - keep[-1]),
-                        "reason": "standstill or reversal after the run"})
-    jitter = int((keep[-1] - keep[0] + 1) - keep.size)
-    return RunSelection(keep=keep, reversed_sign=rev, cut=tuple(cut), jitter_edges=jitter)

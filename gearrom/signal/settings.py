@@ -54,8 +54,9 @@ class ReadSettings:
     t_start_s, t_end_s : float or None
         Time window of the record that is used, s (None: from the start / to the end).
     trim : bool
-        Kind ``quadrature``: cut standstill, jitter and reversals before and after the longest
-        stretch of forward rotation (reported); False: a reversal is an error.
+        Kind ``quadrature``, and kind ``edges`` with a ``direction`` column: cut standstill,
+        jitter and reversals before and after the longest stretch of forward rotation (reported);
+        False: a reversal is an error.
     min_speed_fraction : float
         Standstill for trimming: no new edge for longer than the edge interval at this fraction of
         the record's highest speed.

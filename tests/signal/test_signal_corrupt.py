@@ -182,12 +182,13 @@ def test_spurious_double_edge_removed(base_run, tmp_path):
 
 
 def test_direction_reversal_edges(base_run, tmp_path):
+    """With trimming off, a reversal is an error (trimmed records: test_signal_trim_edges.py)."""
     lines = _lines(base_run)
     lines = ["channel,t_s,direction\n"] + [ln.rstrip("\n") + ",1\n" for ln in lines[1:]]
     i = rows_of(lines, "output")[3000]
     lines[i] = lines[i].replace(",1\n", ",-1\n")
     expect_error(corrupted(base_run, tmp_path, lines), "bad.csv", f"line {i + 1}", "channel 'output'",
-                 f"t={t_of(lines[i]):.9g} s", "direction reversal")
+                 f"t={t_of(lines[i]):.9g} s", "direction reversal", settings=ReadSettings(trim=False))
 
 
 def test_rpm_disagrees(base_run, tmp_path):

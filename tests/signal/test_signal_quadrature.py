@@ -15,7 +15,8 @@ import pytest
 from gearrom.errors import MeasurementError
 from gearrom.signal import ReadSettings, TESettings, process_measurement
 from gearrom.signal.daq import DAQSettings
-from gearrom.signal.quadrature import QuadratureDecoder, select_run
+from gearrom.signal.quadrature import QuadratureDecoder
+from gearrom.signal.trim import select_run
 from quad_synth import RB1, RPM, TE_AMP, te_truth, write_stage
 
 
