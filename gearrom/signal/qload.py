@@ -31,10 +31,10 @@ log = logging.getLogger(__name__)
 #: bound the stream's per-piece working arrays (a few float64 per edge) without changing its result.
 STREAM_CHUNK_EDGES = 1 << 18
 
-#: Samples per piece fed to a decoder after the first chunk of a record without a time column. The
-#: decoder reserves room for two edges per fed sample; smaller pieces keep that unused reserve small.
-#: The first chunk goes whole (it sets the automatic switching levels), and pieces are cut only when
-#: the sample times come from the rate (with a time column the decoder's step estimate is per piece).
+#: Samples per piece fed to a decoder for a record without a time column. The decoder's scratch
+#: arrays hold two edges per fed sample; smaller pieces keep them small.
+#: The automatic switching levels come from the whole first chunk; pieces are cut only when the
+#: sample times come from the rate (with a time column the decoder's step estimate is per piece).
 DECODE_PIECE_SAMPLES = 1 << 18
 
 #: Above this sample step / shortest edge interval the decoder misses x4 edges (illegal transitions).
@@ -63,7 +63,11 @@ def decode(meta: MeasurementMeta, settings: ReadSettings) -> dict[str, tuple]:
     first = True
     for chunk in iter_samples(meta, needed, optional, settings.chunk_rows):
         m = next(iter(chunk.cols.values())).size
-        piece = m if first or chunk.t is not None else DECODE_PIECE_SAMPLES
+        if first:  # the automatic switching levels come from the whole first chunk
+            for ch in CHANNELS:
+                e = meta.encoders[ch]
+                decs[ch].set_levels(chunk.cols[e.a], chunk.cols[e.b], chunk.cols.get(e.z or f"{ch}_z"))
+        piece = m if chunk.t is not None else DECODE_PIECE_SAMPLES
         first = False
         for a in range(0, m, piece):
             b = min(m, a + piece)

@@ -113,6 +113,14 @@ class QuadratureDecoder:
             j = 2 * "abz".index(key)
             self._levels[j:j + 2] = lo, hi
 
+    def set_levels(self, a: np.ndarray, b: np.ndarray, z: np.ndarray | None = None) -> None:
+        """Fix the switching levels of the channels from these samples (by default they come from
+        the first chunk fed)."""
+        self._chan("a", a)
+        self._chan("b", b)
+        if z is not None:
+            self._chan("z", z)
+
     def _new_output(self) -> None:
         self.n = 0
         self._parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
@@ -191,11 +199,16 @@ class QuadratureDecoder:
         """
         self.report.sample_step_s = float(np.median(self._steps)) if self._steps else math.nan
         parts = self._parts
-        if len(parts) == 1:
-            out = parts[0]
-        else:
-            out = tuple(np.concatenate([p[i] for p in parts]) if parts else empty
-                        for i, empty in enumerate(_EMPTY))
+        parts.reverse()
+        out = tuple(np.empty(self.n, e.dtype) for e in _EMPTY)
+        i = 0
+        while parts:  # each piece is freed once copied: the edges are held about once, not twice
+            piece = parts.pop()
+            k = piece[0].size
+            for o, x in zip(out, piece):
+                o[i:i + k] = x
+            i += k
+            del piece
         self._zbuf = np.empty(0, np.int64)
         self._new_output()
         return out
