@@ -75,7 +75,7 @@ def main() -> None:
             prof.disable()
             one = time.perf_counter() - t0
             st = pstats.Stats(prof)
-            pre = sum(v[3] for k, v in st.stats.items() if k[2] in ("pre_step", "segment"))  # cumulative s
+            pre = sum(v[3] for k, v in st.stats.items() if k[2] in ("pre_step",))  # cumulative s
             figures[law].update(one_speed_1250rpm_wall_s=round(one, 3), steps=run.metadata["n_steps"],
                                 us_per_step=round(run.metadata["wall_s"] / run.metadata["n_steps"] * 1e6, 2),
                                 pre_step_share_of_solve=round(pre / max(run.metadata["wall_s"], 1e-9), 3))

@@ -137,12 +137,13 @@ def write_arrays(path: str | Path, arrays: Mapping[str, object]) -> Path:
 
 
 @contextmanager
-def atomic_path(path: str | Path) -> Iterator[Path]:
+def atomic_path(path: str | Path, durable: bool = True) -> Iterator[Path]:
     """A temporary file next to ``path`` that replaces ``path`` when the block completes.
 
     The block writes the temporary file (any writer that takes a path); on normal exit the file is
-    flushed to disk and renamed over ``path`` with :func:`os.replace` (atomic within one file
-    system), on an exception it is deleted and ``path`` is left as it was. The temporary name is
+    flushed to disk (``durable``; False skips the flush for files that are recomputed when found
+    damaged) and renamed over ``path`` with :func:`os.replace` (atomic within one file system), on
+    an exception it is deleted and ``path`` is left as it was. The temporary name is
     hidden, unique per writer and ends with ``path``'s suffix (for writers that check it). Missing
     parent directories are created.
 
@@ -159,8 +160,9 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     try:
         os.chmod(tmp, _FILE_MODE)
         yield tmp
-        with open(tmp, "rb+") as f:
-            os.fsync(f.fileno())
+        if durable:
+            with open(tmp, "rb+") as f:
+                os.fsync(f.fileno())
         os.replace(tmp, path)
     except BaseException:
         try:

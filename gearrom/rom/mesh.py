@@ -258,6 +258,22 @@ class ForceMap:
         return np.where(delta > knots[:, 0], out, 0.0) * scale
 
 
+def periodic_interp(rows: np.ndarray, theta: np.ndarray, period: float) -> np.ndarray:
+    """Rows ``(m, n)`` sampled at ``j * period / n`` (one period), interpolated linearly and
+    periodically at the angles ``theta`` [rad]: ``(m, len(theta))``.
+
+    The same values as ``np.interp`` on the closed grid, found by index arithmetic on the uniform
+    grid (no search), one index computation for all rows.
+    """
+    n = rows.shape[1]
+    x = np.mod(theta, period) * (n / period)
+    i = np.minimum(x.astype(np.intp), n - 1)
+    f = x - i
+    ext = np.concatenate([rows, rows[:, :1]], axis=1)
+    a = ext[:, i]
+    return a + f * (ext[:, i + 1] - a)
+
+
 @dataclass
 class MeshLaw:
     """Evaluates ``k`` and ``e`` (with effects) at given drive-sense angles; fast scalar path for the solver."""
@@ -329,11 +345,7 @@ class MeshLaw:
     def evaluate_array(self, th1: np.ndarray, th2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Vectorised :meth:`evaluate` for post-processing (same formulas)."""
         th1, th2 = np.asarray(th1, dtype=float), np.asarray(th2, dtype=float)
-        period = 2 * math.pi / self.z1
-        xp = np.append(self.theta_grid, period)
-        ph = np.mod(th1, period)
-        k = np.interp(ph, xp, self.kl)
-        e = np.interp(ph, xp, self.el)
+        k, e = periodic_interp(np.vstack([self.k_grid, self.e_grid]), th1, 2 * math.pi / self.z1)
         mod, add = self.effect_terms(th1, th2)
         return k * (1.0 + mod), e - mod * (e - self.e_mean) + add
 
@@ -367,16 +379,12 @@ class MeshLaw:
         """
         fm = self.force_map
         th1, th2 = np.asarray(th1, dtype=float), np.asarray(th2, dtype=float)
-        period = 2 * math.pi / self.z1
-        xp = np.append(fm.theta, period)
-        ph = np.mod(th1, period)
         mod, add = self.effect_terms(th1, th2)
         nom = fm.static_te(self.f_nom)
-        v_nom = np.interp(ph, xp, np.append(nom, nom[0]))
+        v = periodic_interp(np.vstack([nom, fm.e]), th1, 2 * math.pi / self.z1)
+        v_nom = v[0]
         base = v_nom - mod * (v_nom - nom.mean()) + add
-        knots = np.empty((th1.size, fm.f.size))
-        for j, row in enumerate(fm.e):
-            knots[:, j] = base + (np.interp(ph, xp, np.append(row, row[0])) - v_nom) / (1.0 + mod)
+        knots = (base[:, None] + (v[1:].T - v_nom[:, None]) / (1.0 + mod)[:, None])
         return knots, np.ones_like(th1)
 
     def ripple(self, th2: float) -> float:

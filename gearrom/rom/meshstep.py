@@ -85,56 +85,88 @@ class MeshStepper:
         self.load = None
         if ripple_marker is not None:
             self.load = mbs.AddLoad(LoadCoordinate(markerNumber=ripple_marker, load=0.0))
-        self.cache: dict = {"start": -1}
+        self._load_dependent = law.load_dependent
         self._fl = law.force_map.f.tolist() if law.load_dependent else []
+        self._last = max(len(self._fl) - 2, 0)
+        self._j = 0  # segment of the previous step
         self._coords = mbs.systemData.GetODE2Coordinates
+        self._set_object, self._set_load = mbs.SetObjectParameter, mbs.SetLoadParameter
         self._i_delta = i_delta
+        self._start = -1
         self._fill(0)
 
     def _fill(self, start: int) -> None:
         law, h = self.law, self.h
         idx = np.arange(start, min(start + CHUNK, self.n_steps + 1))
         th1, th2 = self.angles(((idx[:, None] + _SUB[None, :]) * h).ravel())
-        c = self.cache
-        c["start"] = start
-        if law.load_dependent:
+        self._start = start
+        if self._load_dependent:
             knots, scale = law.knots_array(th1, th2)
-            c["knots"] = knots.reshape(-1, 4, knots.shape[1]).mean(axis=1).tolist()
-            c["scale"] = scale.reshape(-1, 4).mean(axis=1).tolist()
+            # one flat list, row after row: cheaper to build and to index than a list of rows
+            self._knots = knots.reshape(-1, 4, knots.shape[1]).mean(axis=1).ravel().tolist()
+            self._scale = scale.reshape(-1, 4).mean(axis=1).tolist()
         else:
             k_arr, e_arr = law.evaluate_array(th1, th2)
             k_avg = k_arr.reshape(-1, 4).mean(axis=1)
             f0_avg = (k_arr * e_arr - self.f_nom).reshape(-1, 4).mean(axis=1)
-            c["k"], c["up"] = k_avg.tolist(), (f0_avg / k_avg).tolist()
+            self._k, self._up = k_avg.tolist(), (f0_avg / k_avg).tolist()
         if self.load is not None:
-            c["rip"] = [law.ripple(a) for a in self.angles((idx + 0.5) * h)[1]]
-
-    def _segment(self, i: int) -> tuple[float, float]:
-        row, s, fl = self.cache["knots"][i], self.cache["scale"][i], self._fl
-        d = self._coords()[self._i_delta]
-        j, last = 0, len(fl) - 2
-        while j < last and d >= row[j + 1]:
-            j += 1
-        k = s * (fl[j + 1] - fl[j]) / (row[j + 1] - row[j])
-        return k, row[j] - s * fl[j] / k
+            self._rip = [law.ripple(a) for a in self.angles((idx + 0.5) * h)[1]]
 
     def step_index(self, t: float) -> int:
         """Index of the coming step: exudyn passes the END time ``t_n + h`` of the coming step."""
         return int(t / self.h + 0.5) - 1
 
     def update(self, n: int) -> None:
-        """Set the mesh parameters (and the load ripple) for step ``n``."""
-        i = n - self.cache["start"]
+        """Set the mesh parameters (and the load ripple) for step ``n``.
+
+        Load-dependent law: the segment of the force-deflection map that holds the current
+        deflection gives the stop stiffness (its slope) and stop position (where its line meets
+        ``F = 0``); it is searched from the previous step's segment, since the deflection moves
+        little within a step. This runs once per time step, so everything is bound to locals.
+        """
+        i = n - self._start
         if i >= CHUNK or i < 0:
             self._fill(n)
             i = 0
-        k, up = self._segment(i) if self.law.load_dependent else (self.cache["k"][i], self.cache["up"][i])
-        self.mbs.SetObjectParameter(self.conn, "limitStopsStiffness", k)
-        self.mbs.SetObjectParameter(self.conn, "limitStopsUpper", up)
+        if self._load_dependent:
+            fl, kn, j, last = self._fl, self._knots, self._j, self._last
+            b = i * len(fl)
+            d = self._coords(copy=False)[self._i_delta]  # a view of the state: no copy per step
+            while j > 0 and d < kn[b + j]:
+                j -= 1
+            while j < last and d >= kn[b + j + 1]:
+                j += 1
+            self._j = j
+            s = self._scale[i]
+            k = s * (fl[j + 1] - fl[j]) / (kn[b + j + 1] - kn[b + j])
+            up = kn[b + j] - s * fl[j] / k
+        else:
+            k, up = self._k[i], self._up[i]
+        self._set_object(self.conn, "limitStopsStiffness", k)
+        self._set_object(self.conn, "limitStopsUpper", up)
         if self.load is not None:
-            self.mbs.SetLoadParameter(self.load, "load", self.cache["rip"][i])
+            self._set_load(self.load, "load", self._rip[i])
 
     def pre_step(self, mbs, t: float) -> bool:
         """The exudyn pre-step user function of a run that needs nothing else per step."""
-        self.update(self.step_index(t))
+        self.update(int(t / self.h + 0.5) - 1)
         return True
+
+
+def rk44_settings(n_steps: int, t_end: float, write_period: float):
+    """exudyn settings of a fixed-step RK44 run with sensors stored in memory every ``write_period``
+    [s]: no solution file, no console output, and no extra right-hand side per step for the
+    end-of-step accelerations (no sensor reads them)."""
+    import exudyn as exu
+
+    s = exu.SimulationSettings()
+    s.timeIntegration.numberOfSteps = n_steps
+    s.timeIntegration.endTime = t_end
+    s.timeIntegration.verboseMode = 0
+    s.timeIntegration.solverType = exu.DynamicSolverType.RK44
+    s.timeIntegration.explicit.computeEndOfStepAccelerations = False
+    s.solution.file.write = False
+    s.solution.sensors.writePeriod = write_period
+    return s
+

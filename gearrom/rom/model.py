@@ -8,8 +8,10 @@ preload is a plain linear solve. The rig layout (:func:`build_rig`) comes from t
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import Any
 
 import numpy as np
 
@@ -175,9 +177,15 @@ class Drivetrain:
         [N m] (``n`` angles per mesh period)."""
         from gearrom.rom.mesh import ForceMap
 
-        key = ("force_map", float(torque_out), n)
+        return self.memo(("force_map", float(torque_out), n),
+                         lambda: ForceMap.from_table(self.excitation, self.pair.rb[1], torque_out, n))
+
+    def memo(self, key: tuple, make: Callable[[], Any]) -> Any:
+        """``make()``, computed once per ``key`` for this model: quantities that depend on the model
+        and a few scalars only (a built model is not changed), such as the sampled mesh table at a
+        torque, reused by every speed of a sweep."""
         if key not in self._memo:
-            self._memo[key] = ForceMap.from_table(self.excitation, self.pair.rb[1], torque_out, n)
+            self._memo[key] = make()
         return self._memo[key]
 
     def mesh_stiffness(self, torque: float) -> float:

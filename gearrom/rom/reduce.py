@@ -62,7 +62,47 @@ def reduce(model: Drivetrain, rpm_in: float, torque_out: float, cutoff: float | 
     """
     cutoff = model.cutoff_frequency if cutoff is None else cutoff
     min_share = model.min_mesh_share if min_share is None else min_share
-    M, Ks, Ds, G = model.structure
+    phi, freqs = model.memo(("modes", float(torque_out), float(cutoff), bool(retain_brake), float(min_share)),
+                            lambda: _modes(model, torque_out, cutoff, retain_brake, min_share))
+    _, Ks, Ds, G = model.structure
+    omega = rpm_in * 2 * math.pi / 60
+    Kr = phi.T @ Ks @ phi
+    Dr = phi.T @ (Ds + omega * G) @ phi
+    Fr = phi.T @ model.loads(torque_out)
+    w_eta = phi.T @ model.w
+    rows = [w_eta]
+    if retain_brake:
+        if model.load_station is None:
+            raise ModelError("retain_brake needs a model with a load station")
+        from gearrom.rom.components import RZ
+
+        rows.append(phi[model.index(model.load_station, RZ)])
+    # replace the modal coordinates with the largest pivots by the retained quantities
+    _, _, piv = sla.qr(np.array(rows), pivoting=True)
+    R = np.eye(phi.shape[1])
+    for j, row in enumerate(rows):
+        R[piv[j]] = row
+    T = np.linalg.inv(R)
+    # stability limit of the explicit integrator: spectral radius of the first-order system with the
+    # largest mesh stiffness and the mesh damping (stiffness-proportional damping matters here)
+    kmax = float(model.excitation.k.max())
+    nr = len(w_eta)
+    ww = np.outer(w_eta, w_eta)
+    A = np.block([[np.zeros((nr, nr)), np.eye(nr)],
+                  [-(Kr + kmax * ww), -(Dr + model.mesh_damping(torque_out) * ww)]])
+    rho = float(np.max(np.abs(np.linalg.eigvals(A))))
+    return Reduced(
+        phi=phi, freqs=freqs, T=T, M=T.T @ T, K=T.T @ Kr @ T, D=T.T @ Dr @ T, F=T.T @ Fr,
+        i_delta=int(piv[0]), i_brake=int(piv[1]) if retain_brake else None, w_eta=w_eta,
+        omega_max=rho,
+    )
+
+
+def _modes(model: Drivetrain, torque_out: float, cutoff: float, retain_brake: bool,
+           min_share: float) -> tuple[np.ndarray, np.ndarray]:
+    """Kept modes (with the static correction) and their frequencies [Hz]: the speed-independent
+    part of :func:`reduce`."""
+    M, Ks, _, _ = model.structure
     kbar = model.mesh_stiffness(torque_out)
     w = model.w
     lam, phi = sla.eigh(Ks + kbar * np.outer(w, w), M)
@@ -92,37 +132,7 @@ def reduce(model: Drivetrain, rpm_in: float, torque_out: float, cutoff: float | 
         lam, Q = sla.eigh(V.T @ Kl @ V, V.T @ M @ V)
         phi = V @ Q
         freqs = np.sqrt(np.maximum(lam, 0.0)) / (2 * math.pi)
-    omega = rpm_in * 2 * math.pi / 60
-    Kr = phi.T @ Ks @ phi
-    Dr = phi.T @ (Ds + omega * G) @ phi
-    Fr = phi.T @ model.loads(torque_out)
-    w_eta = phi.T @ w
-    rows = [w_eta]
-    if retain_brake:
-        if model.load_station is None:
-            raise ModelError("retain_brake needs a model with a load station")
-        from gearrom.rom.components import RZ
-
-        rows.append(phi[model.index(model.load_station, RZ)])
-    # replace the modal coordinates with the largest pivots by the retained quantities
-    _, _, piv = sla.qr(np.array(rows), pivoting=True)
-    R = np.eye(phi.shape[1])
-    for j, row in enumerate(rows):
-        R[piv[j]] = row
-    T = np.linalg.inv(R)
-    # stability limit of the explicit integrator: spectral radius of the first-order system with the
-    # largest mesh stiffness and the mesh damping (stiffness-proportional damping matters here)
-    kmax = float(model.excitation.k.max())
-    nr = len(w_eta)
-    ww = np.outer(w_eta, w_eta)
-    A = np.block([[np.zeros((nr, nr)), np.eye(nr)],
-                  [-(Kr + kmax * ww), -(Dr + model.mesh_damping(torque_out) * ww)]])
-    rho = float(np.max(np.abs(np.linalg.eigvals(A))))
-    return Reduced(
-        phi=phi, freqs=freqs, T=T, M=T.T @ T, K=T.T @ Kr @ T, D=T.T @ Dr @ T, F=T.T @ Fr,
-        i_delta=int(piv[0]), i_brake=int(piv[1]) if retain_brake else None, w_eta=w_eta,
-        omega_max=rho,
-    )
+    return phi, freqs
 
 
 def periodic_initial_state(red: Reduced, model: Drivetrain, rpm_in: float, torque_out: float,

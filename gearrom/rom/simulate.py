@@ -30,7 +30,7 @@ from gearrom.config import GearConfig
 from gearrom.errors import ModelError, SolverError
 from gearrom.rom.components import RZ
 from gearrom.rom.mesh import Effects, MeshLaw
-from gearrom.rom.meshstep import MeshStepper
+from gearrom.rom.meshstep import MeshStepper, rk44_settings
 from gearrom.rom.model import Drivetrain
 from gearrom.rom.reduce import periodic_initial_state, reduce
 from gearrom.rom.result import DynamicRun
@@ -52,7 +52,7 @@ def mesh_law(model: Drivetrain, torque_out: float, effects: Effects | None = Non
     """The mesh law of ``model`` at ``torque_out`` [N m], sampled on ``n`` points per mesh period:
     load-dependent (:class:`~gearrom.rom.mesh.ForceMap` of the table's torque map) when the table
     has several torques and ``model.mesh.load_dependent``, else the secant law at ``torque_out``."""
-    th, k, e = model.excitation.sampled(torque_out, n)
+    th, k, e = model.memo(("sampled", float(torque_out), n), lambda: model.excitation.sampled(torque_out, n))
     fmap = model.force_map(torque_out, n) if model.mesh.load_dependent and model.excitation.n_torque > 1 else None
     return MeshLaw(model.pair, th, k, e, model.nominal_force(torque_out), effects or Effects(), fmap)
 
@@ -160,13 +160,7 @@ def simulate_run(config_or_model, rpm_in: float, torque_out_Nm: float | None = N
     sens_v = mbs.AddSensor(SensorMarker(markerNumber=m_delta, outputVariableType=exu.OutputVariableType.Coordinates_t,
                                         storeInternal=True, writeToFile=False))
     mbs.Assemble()
-    s = exu.SimulationSettings()
-    s.timeIntegration.numberOfSteps = n_steps
-    s.timeIntegration.endTime = t_end
-    s.timeIntegration.verboseMode = 0
-    s.solution.file.write = False
-    s.solution.sensors.writePeriod = 1.0 / fs
-    s.timeIntegration.solverType = exu.DynamicSolverType.RK44
+    s = rk44_settings(n_steps, t_end, 1.0 / fs)
     t0, c0 = _time.perf_counter(), _time.process_time()
     ok = mbs.SolveDynamic(s, solverType=exu.DynamicSolverType.RK44)
     wall, cpu = _time.perf_counter() - t0, _time.process_time() - c0

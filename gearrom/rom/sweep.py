@@ -41,6 +41,8 @@ _BLAS_ENV = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
 
 #: bounds of a speed list: count of speeds, and the fastest input speed [rpm] (beyond any gear drive)
 MAX_SPEEDS = 100_000
+#: layout of the stored per-speed file (part of the reuse key: a file of another layout is recomputed)
+POINT_FORMAT = "channels-2d/1"
 MAX_RPM = 1e6
 
 
@@ -203,15 +205,16 @@ def reuse_key(cfg: "GearConfig", torque: float, n_output_revs: float, samples_pe
     -------
     dict
         JSON-serialisable key: the config digest (merged content, ``extends`` chain included), the
-        SHA-256 of the bytes of every referenced file (:func:`referenced_files`), the run settings
-        and the versions of gearrom (module and installed distribution) and exudyn.
+        SHA-256 of the bytes of every referenced file (:func:`referenced_files`), the run settings,
+        the layout of the stored file (``POINT_FORMAT``) and the versions of gearrom (module and
+        installed distribution) and exudyn.
     """
     import gearrom
 
     return {"config_digest": cfg.digest(),
             "files_sha256": {k: _file_sha256(p) for k, p in sorted(referenced_files(cfg).items())},
             "torque_out_Nm": repr(float(torque)), "n_output_revs": repr(float(n_output_revs)),
-            "samples_per_mesh": int(samples_per_mesh), "linear": bool(linear),
+            "samples_per_mesh": int(samples_per_mesh), "linear": bool(linear), "point_format": POINT_FORMAT,
             "gearrom_version": str(gearrom.__version__),
             "gearrom_distribution": _distribution_version("gearrom"),
             "exudyn_version": _distribution_version("exudyn")}
@@ -248,10 +251,26 @@ def _point_summary(run, orders: int = 3) -> dict:
             "simulated_s": run.metadata.get("simulated_s")}
 
 
+def _warm(config_ref: str, torque: float, key: str) -> None:
+    """Build the model and the parts of a run that do not depend on the speed, in this process."""
+    from gearrom.rom import frf, simulate  # noqa: F401 (imported for the workers)
+    from gearrom.rom.reduce import reduce
+
+    model = _model(config_ref, torque, key)
+    simulate.mesh_law(model, torque)
+    reduce(model, 1000.0, torque)
+
+
+def _single_thread_blas() -> None:
+    """Pool initializer: BLAS and OpenMP on one thread in this worker."""
+    from threadpoolctl import threadpool_limits
+
+    threadpool_limits(1)
+
+
 def _run_one(task: tuple) -> tuple[float, dict, dict[str, np.ndarray]]:
     """Simulate one speed, store it atomically; returns ``(rpm, summary, channels)``."""
     config_ref, rpm, torque, n_revs, spm, path, key_hash, key_json, linear = task
-    import xarray as xr
 
     from gearrom.rom import simulate
     from gearrom.rom.frf import gmf_estimate
@@ -269,11 +288,24 @@ def _run_one(task: tuple) -> tuple[float, dict, dict[str, np.ndarray]]:
     data = {"dte_sensor": run.dte["sensor"], "dte_clutch": run.dte.get("clutch", np.full_like(run.delta, np.nan)),
             "delta": run.delta, "force": run.force, "ste": run.ste}
     data = {k: np.asarray(v[:n], dtype=float) for k, v in data.items()}
-    ds = xr.Dataset({k: ("sample", v) for k, v in data.items()},
-                    attrs={"rpm_in": rpm, "stamp": key_hash, "reuse_key_json": key_json,
-                           "summary_json": json.dumps(summary)})
-    write_netcdf_atomic(ds, path)
+    _write_point(path, data, {"rpm_in": rpm, "stamp": key_hash, "reuse_key_json": key_json,
+                              "summary_json": json.dumps(summary)})
     return rpm, summary, data
+
+
+def _write_point(path: Path, data: dict[str, np.ndarray], attrs: dict) -> None:
+    """One speed as a NetCDF-4 file: variable ``channels`` (channel, sample), the channel names in
+    the attribute ``channel_names``; written atomically with h5netcdf directly, since the per-speed
+    files are many and small and xarray's writer costs several times more than the data."""
+    import h5netcdf
+
+    from gearrom.fe.cache import atomic_path
+
+    # not flushed to disk: a file that a crash leaves damaged is found unreadable and recomputed
+    with atomic_path(path, durable=False) as tmp, h5netcdf.File(tmp, "w") as f:
+        f.dimensions = {"channel": len(CHANNELS), "sample": len(data[CHANNELS[0]])}
+        f.create_variable("channels", ("channel", "sample"), data=np.array([data[k] for k in CHANNELS]))
+        f.attrs.update(attrs, channel_names=",".join(CHANNELS))
 
 
 def _one_line(exc: BaseException) -> str:
@@ -287,16 +319,19 @@ def _read_point(path: Path, key_hash: str, rpm: float) -> tuple[dict, dict[str, 
     A file that cannot be read (empty, truncated, not NetCDF) is reported in one warning and
     left to be recomputed.
     """
-    import xarray as xr
+    import h5netcdf
 
     if not path.exists():
         return None
     try:
-        with xr.open_dataset(path, engine=netcdf_engine()) as ds:
+        with h5netcdf.File(path, "r") as ds:
             if ds.attrs.get("stamp") != key_hash or float(ds.attrs.get("rpm_in", math.nan)) != rpm:
                 log.info("%s: stored for another run key or speed; recomputing", path)
                 return None
-            return json.loads(ds.attrs["summary_json"]), {k: ds[k].values.astype(float) for k in CHANNELS}
+            if ds.attrs["channel_names"] != ",".join(CHANNELS):
+                raise ValueError(f"channels {ds.attrs['channel_names']!r}, expected {','.join(CHANNELS)!r}")
+            arr = np.asarray(ds["channels"][...], dtype=float)
+            return json.loads(ds.attrs["summary_json"]), dict(zip(CHANNELS, arr))
     except Exception as exc:  # noqa: BLE001 (any unreadable stored file is recomputed)
         warnings.warn(f"{path}: stored sweep point is damaged ({_one_line(exc)}); recomputing it",
                       RuntimeWarning, stacklevel=3)
@@ -503,13 +538,21 @@ def run_sweep(config_ref: str | Path, rpms, out_dir: str | Path, *, torque_out: 
 
     bar = tqdm(total=len(todo), desc=f"sweep {cfg.name}", unit="speed", disable=not progress or not todo)
     if processes > 1 and len(todo) > 1:
-        # fresh worker processes with single-threaded BLAS: the per-speed linear algebra is small, and
-        # multi-threaded BLAS in several processes on few cores slows it down many times
-        ctx = mp.get_context("spawn")
+        # worker processes with single-threaded BLAS: the per-speed linear algebra is small, and
+        # multi-threaded BLAS in several processes on few cores slows it down many times. Where the
+        # platform forks, the model is built here first and the workers start from a copy of this
+        # process (modules imported, model and its speed-independent reduction cached); elsewhere
+        # they are spawned fresh and build it themselves.
+        fork = "fork" in mp.get_all_start_methods()
+        if fork:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                _warm(ref, torque, key_hash)
+        ctx = mp.get_context("fork" if fork else "spawn")
         saved = {k: os.environ.get(k) for k in _BLAS_ENV}
         os.environ.update({k: "1" for k in _BLAS_ENV})
         try:
-            with ctx.Pool(min(processes, len(todo))) as pool:
+            with ctx.Pool(min(processes, len(todo)), initializer=_single_thread_blas) as pool:
                 for r, s, d in pool.imap_unordered(_run_one, todo):
                     points[index[r]] = (s, d)
                     bar.update()

@@ -193,7 +193,7 @@ def simulate_runup(config_or_model, rpm_start: float, rpm_end: float, duration_s
 
     from gearrom.rom.components import RZ
     from gearrom.rom.mesh import Effects
-    from gearrom.rom.meshstep import MeshStepper
+    from gearrom.rom.meshstep import MeshStepper, rk44_settings
     from gearrom.rom.reduce import periodic_initial_state, reduce
     from gearrom.rom.simulate import mesh_law
 
@@ -256,12 +256,7 @@ def simulate_runup(config_or_model, rpm_start: float, rpm_end: float, duration_s
     sens = mbs.AddSensor(SensorNode(nodeNumber=node, outputVariableType=exu.OutputVariableType.Coordinates,
                                     storeInternal=True, writeToFile=False))
     mbs.Assemble()
-    s = exu.SimulationSettings()
-    s.timeIntegration.numberOfSteps = n_steps
-    s.timeIntegration.endTime = n_steps * h
-    s.timeIntegration.verboseMode = 0
-    s.solution.file.write = False
-    s.solution.sensors.writePeriod = 1.0 / fs
+    s = rk44_settings(n_steps, n_steps * h, 1.0 / fs)
     t0, c0 = _time.perf_counter(), _time.process_time()
     ok = mbs.SolveDynamic(s, solverType=exu.DynamicSolverType.RK44)
     wall, cpu = _time.perf_counter() - t0, _time.process_time() - c0
