@@ -11,7 +11,9 @@ Figures, measured in one run:
 * one speed (1250 rpm) profiled: microseconds per step and the share of the time spent in the
   Python pre-step function that sets the mesh law per step.
 
-Run: python benchmarks/bench_sweep_fe.py [--quick]   (--quick: 250:5000:250 instead of step 25)
+Run: python benchmarks/bench_sweep_fe.py [--quick] [--sweeps-only]
+(--quick: 250:5000:250 instead of step 25; --sweeps-only: skip the main-job timings and use the
+user's cache, for a look at the sweep alone; the result file is not written)
 """
 from __future__ import annotations
 
@@ -54,10 +56,12 @@ def main() -> None:
         for law in ("load-dependent", "secant"):
             cfgs[law] = tmp / f"rig-fe-{law}.toml"
             cfgs[law].write_text(CONFIG.format(law=law))
-        env = {**os.environ, "GEARROM_CACHE_DIR": str(tmp / "cache"), "MPLBACKEND": "Agg"}
-        figures["main_job_cold_cache_wall_s"] = round(_main_job(cfgs["load-dependent"], tmp / "cold", env), 2)
-        figures["main_job_warm_cache_wall_s"] = round(_main_job(cfgs["load-dependent"], tmp / "warm", env), 2)
-        os.environ["GEARROM_CACHE_DIR"] = env["GEARROM_CACHE_DIR"]
+        sweeps_only = "--sweeps-only" in sys.argv[1:]
+        if not sweeps_only:
+            env = {**os.environ, "GEARROM_CACHE_DIR": str(tmp / "cache"), "MPLBACKEND": "Agg"}
+            figures["main_job_cold_cache_wall_s"] = round(_main_job(cfgs["load-dependent"], tmp / "cold", env), 2)
+            figures["main_job_warm_cache_wall_s"] = round(_main_job(cfgs["load-dependent"], tmp / "warm", env), 2)
+            os.environ["GEARROM_CACHE_DIR"] = env["GEARROM_CACHE_DIR"]
         for law, cfg in cfgs.items():
             t0 = time.perf_counter()
             res = run_sweep(str(cfg), parse_rpm(rpm), tmp / f"sweep-{law}", processes=2, n_output_revs=2.0,
@@ -86,7 +90,8 @@ def main() -> None:
                        "main job includes the 3D FE compliances of both gears and the FE table")
     for k, v in figures.items():
         print(f"{k}: {v}")
-    write_result("bench_sweep_fe" + ("_quick" if rpm.endswith(":250") else ""), figures)
+    if "--sweeps-only" not in sys.argv[1:]:
+        write_result("bench_sweep_fe" + ("_quick" if rpm.endswith(":250") else ""), figures)
 
 
 if __name__ == "__main__":

@@ -74,6 +74,10 @@ def table_key(pair, torques: Sequence[float], n_positions: int, settings=None, h
                                       "n_positions": int(n_positions), "mesh": mesh, "helical_model": model})
 
 
+#: tables already read or computed in this process, by key: (file stamp, table)
+_LOADED: dict[tuple, tuple] = {}
+
+
 def fe_excitation(pair, torques: Sequence[float], n_positions: int = 64, settings=None, *,
                   cache_dir: str | Path | bool | None = True, helical_model: str = "3d", progress: bool = False,
                   config_name: str = "", config_digest: str = "") -> MeshExcitation:
@@ -103,7 +107,8 @@ def fe_excitation(pair, torques: Sequence[float], n_positions: int = 64, setting
     Returns
     -------
     MeshExcitation
-        Secant stiffness and static TE over (torque, theta); ``metadata`` holds ``source``
+        Secant stiffness and static TE over (torque, theta), read once per process (later calls
+        with the same key return the same object); ``metadata`` holds ``source``
         (``"fe"``), ``cache_key``, ``torques_Nm`` and ``n_positions``.
     """
     from gearrom.fe.cache import FECache, cached
@@ -126,5 +131,25 @@ def fe_excitation(pair, torques: Sequence[float], n_positions: int = 64, setting
                 "torques_Nm": tq, "n_positions": int(n_positions)}
         return mesh_cycle(ltca, tq, n_positions, metadata=meta, progress=progress).to_excitation()
 
-    return cached(FECache(folder / "tables") if folder is not None else None, f"table-{key}.nc", MeshExcitation.load,
-                  compute, MeshExcitation.save, atomic=True)
+    file = folder / "tables" / f"table-{key}.nc" if folder is not None else None
+    memo = (key, str(folder), config_name, config_digest)
+    hit = _LOADED.get(memo)
+    if hit is not None and hit[0] == _stamp(file):
+        return hit[1]
+    ex = cached(FECache(folder / "tables") if folder is not None else None, f"table-{key}.nc", MeshExcitation.load,
+                compute, MeshExcitation.save, atomic=True)
+    if len(_LOADED) >= 4:
+        _LOADED.clear()
+    _LOADED[memo] = (_stamp(file), ex)
+    return ex
+
+
+def _stamp(file: Path | None) -> tuple | None:
+    """Size and modification time of a cached table file (None: no file): a table read earlier in
+    this process is reused only while its file is unchanged, so a damaged or replaced file goes
+    through the cache's checks again."""
+    try:
+        st = file.stat() if file is not None else None
+    except OSError:
+        return None
+    return (st.st_size, st.st_mtime_ns) if st is not None else None

@@ -59,11 +59,15 @@ class MeshStepper:
         ``angles(t) -> (theta1, theta2)``: drive-sense angles [rad] of both gears at times ``t`` [s].
     ripple_marker : int, optional
         Coordinate marker of the brake: adds a ``LoadCoordinate`` with the law's load ripple.
+    period_steps : int, optional
+        The mesh parameters repeat every ``period_steps`` steps (constant speed, a whole number of
+        steps per mesh period, no effect slower than the mesh period): they are computed for one
+        period only.
     """
 
     def __init__(self, mbs, node: int, i_delta: int, law: MeshLaw, damping: float, backlash: float, h: float,
                  n_steps: int, angles: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
-                 ripple_marker: int | None = None) -> None:
+                 ripple_marker: int | None = None, period_steps: int | None = None) -> None:
         from exudyn.itemInterface import (LoadCoordinate, MarkerNodeCoordinate, NodeGenericData, NodePointGround,
                                           ObjectConnectorCoordinateSpringDamperExt)
 
@@ -86,25 +90,31 @@ class MeshStepper:
         if ripple_marker is not None:
             self.load = mbs.AddLoad(LoadCoordinate(markerNumber=ripple_marker, load=0.0))
         self._load_dependent = law.load_dependent
-        self._fl = law.force_map.f.tolist() if law.load_dependent else []
-        self._last = max(len(self._fl) - 2, 0)
-        self._j = 0  # segment of the previous step
+        self._last = law.force_map.n_torques - 1 if law.load_dependent else 0  # last segment
         self._coords = mbs.systemData.GetODE2Coordinates
         self._set_object, self._set_load = mbs.SetObjectParameter, mbs.SetLoadParameter
         self._i_delta = i_delta
+        self._inv_h = 1.0 / h
+        self._period = int(period_steps) if period_steps and ripple_marker is None else 0
         self._start = -1
         self._fill(0)
+        self._update = self._make_update()
 
     def _fill(self, start: int) -> None:
         law, h = self.law, self.h
-        idx = np.arange(start, min(start + CHUNK, self.n_steps + 1))
+        idx = np.arange(self._period) if self._period else np.arange(start, min(start + CHUNK, self.n_steps + 1))
         th1, th2 = self.angles(((idx[:, None] + _SUB[None, :]) * h).ravel())
         self._start = start
         if self._load_dependent:
             knots, scale = law.knots_array(th1, th2)
-            # one flat list, row after row: cheaper to build and to index than a list of rows
-            self._knots = knots.reshape(-1, 4, knots.shape[1]).mean(axis=1).ravel().tolist()
-            self._scale = scale.reshape(-1, 4).mean(axis=1).tolist()
+            kn = knots.reshape(-1, 4, knots.shape[1]).mean(axis=1)
+            sc = scale.reshape(-1, 4).mean(axis=1)[:, None]
+            f = law.force_map.f
+            # per step and segment: slope (stop stiffness) and where its line meets F = 0 (stop position)
+            k_seg = sc * (f[1:] - f[:-1]) / (kn[:, 1:] - kn[:, :-1])
+            up_seg = kn[:, :-1] - sc * f[:-1] / k_seg
+            # flat lists, row after row: cheaper to build and to index than lists of rows
+            self._knots, self._k, self._up = kn.ravel().tolist(), k_seg.ravel().tolist(), up_seg.ravel().tolist()
         else:
             k_arr, e_arr = law.evaluate_array(th1, th2)
             k_avg = k_arr.reshape(-1, 4).mean(axis=1)
@@ -117,40 +127,56 @@ class MeshStepper:
         """Index of the coming step: exudyn passes the END time ``t_n + h`` of the coming step."""
         return int(t / self.h + 0.5) - 1
 
+    def _make_update(self) -> Callable[[int], None]:
+        """The per-step update :meth:`update` as a closure over everything it reads (it runs once per
+        time step, where attribute lookups are a noticeable share of the step)."""
+        set_object, set_load, conn, load = self._set_object, self._set_load, self.conn, self.load
+        coords, i_delta, last, ld = self._coords, self._i_delta, self._last, self._load_dependent
+        w = last + 2  # knots per step
+        period = self._period
+        state = [0, None]  # segment of the previous step; view of the system state (taken once per solve)
+
+        def update(n: int) -> None:
+            if period:
+                i = n % period
+            else:
+                i = n - self._start
+                if i >= CHUNK or i < 0:
+                    self._fill(n)
+                    i = 0
+            c = i
+            if ld:
+                q = state[1]
+                if q is None:
+                    q = state[1] = coords(copy=False)
+                kn, j, b = self._knots, state[0], i * w
+                d = q.item(i_delta)
+                while j > 0 and d < kn[b + j]:
+                    j -= 1
+                while j < last and d >= kn[b + j + 1]:
+                    j += 1
+                state[0] = j
+                c = i * (last + 1) + j
+            set_object(conn, "limitStopsStiffness", self._k[c])
+            set_object(conn, "limitStopsUpper", self._up[c])
+            if load is not None:
+                set_load(load, "load", self._rip[i])
+
+        return update
+
     def update(self, n: int) -> None:
         """Set the mesh parameters (and the load ripple) for step ``n``.
 
         Load-dependent law: the segment of the force-deflection map that holds the current
         deflection gives the stop stiffness (its slope) and stop position (where its line meets
         ``F = 0``); it is searched from the previous step's segment, since the deflection moves
-        little within a step. This runs once per time step, so everything is bound to locals.
+        little within a step.
         """
-        i = n - self._start
-        if i >= CHUNK or i < 0:
-            self._fill(n)
-            i = 0
-        if self._load_dependent:
-            fl, kn, j, last = self._fl, self._knots, self._j, self._last
-            b = i * len(fl)
-            d = self._coords(copy=False)[self._i_delta]  # a view of the state: no copy per step
-            while j > 0 and d < kn[b + j]:
-                j -= 1
-            while j < last and d >= kn[b + j + 1]:
-                j += 1
-            self._j = j
-            s = self._scale[i]
-            k = s * (fl[j + 1] - fl[j]) / (kn[b + j + 1] - kn[b + j])
-            up = kn[b + j] - s * fl[j] / k
-        else:
-            k, up = self._k[i], self._up[i]
-        self._set_object(self.conn, "limitStopsStiffness", k)
-        self._set_object(self.conn, "limitStopsUpper", up)
-        if self.load is not None:
-            self._set_load(self.load, "load", self._rip[i])
+        self._update(n)
 
     def pre_step(self, mbs, t: float) -> bool:
         """The exudyn pre-step user function of a run that needs nothing else per step."""
-        self.update(int(t / self.h + 0.5) - 1)
+        self._update(int(t * self._inv_h + 0.5) - 1)
         return True
 
 

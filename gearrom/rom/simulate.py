@@ -152,7 +152,10 @@ def simulate_run(config_or_model, rpm_in: float, torque_out_Nm: float | None = N
     def angles(tm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return theta0 + omega * tm, theta0 * z1 / z2 + omega2 * tm
 
-    mesh = MeshStepper(mbs, node, red.i_delta, law, c_mesh, backlash, h, n_steps, angles, m_brake)
+    # a whole number of steps per mesh period and no slower effect: the mesh parameters repeat
+    per_mesh = fs * t_mesh * n_sub
+    period = int(round(per_mesh)) if effects.empty and abs(per_mesh - round(per_mesh)) < 1e-6 else None
+    mesh = MeshStepper(mbs, node, red.i_delta, law, c_mesh, backlash, h, n_steps, angles, m_brake, period)
     m_delta = mesh.marker
     mbs.SetPreStepUserFunction(mesh.pre_step)
     sens = mbs.AddSensor(SensorNode(nodeNumber=node, outputVariableType=exu.OutputVariableType.Coordinates,
