@@ -18,6 +18,7 @@ import logging
 import math
 import multiprocessing as mp
 import os
+import threading
 import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -536,14 +537,18 @@ def run_sweep(config_ref: str | Path, rpms, out_dir: str | Path, *, torque_out: 
         log.info("resuming: %d of %d speeds already done", len(points), len(rpms))
     from tqdm import tqdm
 
-    bar = tqdm(total=len(todo), desc=f"sweep {cfg.name}", unit="speed", disable=not progress or not todo)
+    def new_bar():
+        return tqdm(total=len(todo), desc=f"sweep {cfg.name}", unit="speed", disable=not progress or not todo)
+
     if processes > 1 and len(todo) > 1:
         # worker processes with single-threaded BLAS: the per-speed linear algebra is small, and
         # multi-threaded BLAS in several processes on few cores slows it down many times. Where the
-        # platform forks, the model is built here first and the workers start from a copy of this
-        # process (modules imported, model and its speed-independent reduction cached); elsewhere
-        # they are spawned fresh and build it themselves.
-        fork = "fork" in mp.get_all_start_methods()
+        # platform forks and this process runs no other thread (a fork copies only the calling
+        # thread, so a lock held by another one would stay locked in the workers), the model is
+        # built here first and the workers start from a copy of this process (modules imported,
+        # model and its speed-independent reduction cached); otherwise they are spawned fresh and
+        # build it themselves. The progress bar (a monitor thread) starts after the workers.
+        fork = "fork" in mp.get_all_start_methods() and threading.active_count() == 1
         if fork:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
@@ -553,6 +558,7 @@ def run_sweep(config_ref: str | Path, rpms, out_dir: str | Path, *, torque_out: 
         os.environ.update({k: "1" for k in _BLAS_ENV})
         try:
             with ctx.Pool(min(processes, len(todo)), initializer=_single_thread_blas) as pool:
+                bar = new_bar()
                 for r, s, d in pool.imap_unordered(_run_one, todo):
                     points[index[r]] = (s, d)
                     bar.update()
@@ -563,6 +569,7 @@ def run_sweep(config_ref: str | Path, rpms, out_dir: str | Path, *, torque_out: 
                 else:
                     os.environ[k] = v
     else:
+        bar = new_bar()
         for t in todo:
             r, s, d = _run_one(t)
             points[index[r]] = (s, d)
