@@ -36,7 +36,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-import numpy as np
 
 from gearrom.errors import CalibrationError
 
@@ -141,12 +140,6 @@ def check_name(name: str, target: str | None = None) -> EffectSpec:
 
 
 # ---------------------------------------------------------------- kinematic error patterns
-def sinusoid(n_per_rev: int) -> tuple[np.ndarray, np.ndarray]:
-    """``cos(theta)`` and ``-sin(theta)`` on a one-revolution grid (basis of ``a cos(theta + phi)``)."""
-    th = np.arange(n_per_rev) * 2 * math.pi / n_per_rev
-    return np.cos(th), -np.sin(th)
-
-
 def amp_phase(x_cos: float, x_sin: float) -> tuple[float, float]:
     """Amplitude and phase (deg) of ``x_cos cos(theta) - x_sin sin(theta)``."""
     return math.hypot(x_cos, x_sin), math.degrees(math.atan2(x_sin, x_cos))

@@ -315,12 +315,6 @@ def _solve_ls(A: np.ndarray, Y: np.ndarray) -> np.ndarray:
     return scipy.linalg.lstsq(As, Y, lapack_driver="gelsd", cond=1e-10)[0] / s[:, None]
 
 
-def eval_lines(c: np.ndarray, theta_in: np.ndarray, theta_out: np.ndarray, lines) -> np.ndarray:
-    """``Re(sum c exp(i phi))`` at the given angles."""
-    A = line_design(theta_in, theta_out, lines)
-    return A @ np.concatenate([c.real, c.imag])
-
-
 def mesh_lines(z1: int, n: int = 3) -> np.ndarray:
     """Lines of the GMF harmonics 1..n (orders of the input shaft)."""
     return np.array([[h * z1, 0.0] for h in range(1, n + 1)])

@@ -78,7 +78,9 @@ def contact_length_window(pair, z: int, tooth: int) -> np.ndarray:
     return trap(u - tooth) / total
 
 
-def _kinematic(inj: Injected, pair, gear: str) -> np.ndarray | None:
+def kinematic_tables(inj: Injected, pair, gear: str) -> np.ndarray | None:
+    """Kinematic error [m] of the injected effects of one gear (``"input_gear"``/``"output_gear"``)
+    over one revolution of it, on ``N_TAB`` points (None: no effect on that gear)."""
     th = np.arange(N_TAB) * 2 * math.pi / N_TAB
     tab = np.zeros(N_TAB)
     used = False
@@ -129,7 +131,7 @@ def make_run(path_json: str | Path, config: str, rpm_in: float, *, simulator, to
     ratio = pair.z[0] / pair.z[1]
     f_out = rpm_in / 60 * ratio
     dur = revs_out / f_out + 4e-3
-    ch = ModelChanges(kinematic_in=_kinematic(inj, pair, "input_gear"), kinematic_out=_kinematic(inj, pair, "output_gear"),
+    ch = ModelChanges(kinematic_in=kinematic_tables(inj, pair, "input_gear"), kinematic_out=kinematic_tables(inj, pair, "output_gear"),
                       micro=inj.micro, rig_scale=tuple(inj.rig_scale), load_ripple=inj.load_ripple)
     h = simulator.simulate(RunConditions(rpm_in, torque_out_Nm, dur), ch)
     th1, th2 = h.theta_in_rad.copy(), h.theta_out_rad.copy()

@@ -168,7 +168,7 @@ def section_mesh(pair, i: int, s: Mesh3DSettings) -> Mesh2D:
                 named.setdefault(f"{SEGMENT_NAMES[seg]}_{'r' if side > 0 else 'l'}_{j}", []).append(c)
         # the rest of the ring: the root circle through the outer space middles (no teeth)
         c0 = geo.addPoint(0, 0, 0)
-        p_end, p_start = rotate(prof.points[-1:], -n * 2 * math.pi / z)[0], rotate(prof.points[:1], n * 2 * math.pi / z)[0]
+        p_end = rotate(prof.points[-1:], -n * 2 * math.pi / z)[0]
         r_root = float(np.hypot(*p_end))
         a_end = math.atan2(p_end[1], p_end[0])
         span = 2 * math.pi - (2 * n + 1) * 2 * math.pi / z

@@ -16,7 +16,7 @@ import numpy as np
 
 from gearrom.calibrate.rig import TorsionalRig
 from gearrom.calibrate.simulator import ModelChanges, RunConditions
-from gearrom.calibrate.synthetic import Injected, _kinematic
+from gearrom.calibrate.synthetic import Injected, kinematic_tables
 from gearrom.signal.daq import DAQSettings, emulate_quadrature, runup_angle, write_quadrature
 
 CONFIG = "stage-15-30"
@@ -35,8 +35,8 @@ def write_stage_run(path_json: Path, injected: Injected | None = None, *, rig: T
     w = rpm * 2 * math.pi / 60
     t = np.linspace(0.0, duration_s, int(duration_s * 100_000))
     phi = runup_angle(t, rpm, t_steady_s=t_steady_s)
-    ch = ModelChanges(kinematic_in=_kinematic(inj, rig.pair, "input_gear"),
-                      kinematic_out=_kinematic(inj, rig.pair, "output_gear"))
+    ch = ModelChanges(kinematic_in=kinematic_tables(inj, rig.pair, "input_gear"),
+                      kinematic_out=kinematic_tables(inj, rig.pair, "output_gear"))
     h = rig.simulate(RunConditions(rpm, TORQUE, T_SKIP + phi[-1] / w + 0.2), ch)
     keep = h.t_s >= T_SKIP
     phi_sim = w * (h.t_s[keep] - T_SKIP)

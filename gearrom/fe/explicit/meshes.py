@@ -56,54 +56,6 @@ def annulus_q4(r_in: float, r_out: float, nr: int, nt: int, center=(0.0, 0.0)):
     return nodes, elements, np.arange(nt), nr * nt + np.arange(nt)
 
 
-def disk_q4(radius: float, n_core: int, n_ring: int, center=(0.0, 0.0), grading: float = 1.0):
-    """Q4 mesh of a full disk: a mapped square core (n_core x n_core) and an O-grid ring.
-
-    ``n_ring`` radial element layers between the core boundary and the rim; ``grading`` < 1
-    shrinks the layers towards the rim (ratio of successive layer thicknesses). Returns (nodes,
-    elements, rim_ids) with rim_ids ordered counter-clockwise.
-    """
-    if n_core < 1 or n_ring < 1 or radius <= 0:
-        raise ConfigError("disk_q4 needs radius > 0, n_core >= 1, n_ring >= 1")
-    a = 0.35 * radius                                   # half-size of the core square
-    s = np.linspace(-1, 1, n_core + 1)
-    S, T = np.meshgrid(s, s)
-    # mapped core: blend square with circle to avoid flat angles at the corners
-    Xc, Yc = S * a, T * a
-    core = np.column_stack([Xc.ravel(), Yc.ravel()])
-    ncn = n_core + 1
-    i, j = np.meshgrid(np.arange(n_core), np.arange(n_core))
-    n0 = (j * ncn + i).ravel()
-    elems = [np.column_stack([n0, n0 + 1, n0 + ncn + 1, n0 + ncn])]
-    # core boundary nodes counter-clockwise starting at (-a, -a)
-    ids = []
-    ids += [0 * ncn + k for k in range(n_core)]                 # bottom, left->right
-    ids += [k * ncn + n_core for k in range(n_core)]            # right, bottom->top
-    ids += [n_core * ncn + (n_core - k) for k in range(n_core)]  # top, right->left
-    ids += [(n_core - k) * ncn + 0 for k in range(n_core)]      # left, top->bottom
-    ids = np.array(ids)
-    nb = ids.size
-    pb = core[ids]
-    ang = np.arctan2(pb[:, 1], pb[:, 0])
-    rim = np.column_stack([np.cos(ang), np.sin(ang)]) * radius
-    w = grading ** np.arange(n_ring)
-    frac = np.concatenate([[0.0], np.cumsum(w) / w.sum()])
-    nodes = [core]
-    layer_ids = [ids]
-    base = core.shape[0]
-    for k in range(1, n_ring + 1):
-        pts = pb + frac[k] * (rim - pb)
-        nodes.append(pts)
-        layer_ids.append(base + np.arange(nb))
-        base += nb
-    for k in range(n_ring):
-        p, q = layer_ids[k], layer_ids[k + 1]
-        pn, qn = np.roll(p, -1), np.roll(q, -1)
-        elems.append(np.column_stack([p, q, qn, pn]))
-    nodes = np.vstack(nodes) + np.asarray(center, float)
-    return nodes, np.vstack(elems), layer_ids[-1]
-
-
 def graded_coordinates(n: int, length: float, h0: float) -> np.ndarray:
     """``n + 1`` coordinates from 0 to ``length`` with first cell ``h0`` and geometric growth."""
     if not 0 < h0 <= length or n < 1:
