@@ -6,10 +6,12 @@ sensor-side encoder), output gear (wheel, encoder), load (clutch hub, lever and 
 * Motor: speed-controlled, a torsional spring-damper ``k_ctrl, c_ctrl`` to the reference angle
   ``Omega t`` plus the feed-forward of the load torque (a PD law; stated, not identified).
 * Input shaft: spring-damper motor -> pinion. Clutch/coupling: spring-damper wheel -> load.
-* Mesh: ``F = k(theta_1) (delta - e0(theta_1) - e_x) + c_m (d delta/dt - d e_x/dt)``, ``F >= 0``
-  (contact loss; no back-side contact), ``delta = r_b1 theta_1 - r_b2 theta_2``, with
-  ``k, e0`` from the mesh excitation table at the run's torque (tangent linearization
-  ``e0 = e - F_t/k``) and ``e_x`` the kinematic errors of :class:`~gearrom.calibrate.simulator.ModelChanges`.
+* Mesh: the secant law of :class:`~gearrom.rom.mesh.MeshLaw` at the run's torque, evaluated by the
+  compiled :func:`gearrom.rom.lawkernel.law_force` that the validation's pair model uses too:
+  ``F = k(theta_1) (delta - e0(theta_1) - e_x) + c_m (d delta/dt - d e_x/dt)`` while
+  ``delta - e_x > e0`` (else 0: contact loss; no back-side contact), ``delta = r_b1 theta_1 -
+  r_b2 theta_2``, with ``k, e0`` from the mesh excitation table at the run's torque
+  (``e0 = e - F_t/k``) and ``e_x`` the kinematic errors of :class:`~gearrom.calibrate.simulator.ModelChanges`.
 * Brake: constant torque on the load, optionally with a ripple ``r cos(order theta_load + phi)``.
 * Encoders sit on the gears (sensor side, no torque through the stub: no twist).
 
@@ -29,9 +31,11 @@ import numba
 import numpy as np
 
 from gearrom.calibrate.microfe import FEMicroModel, with_micro
-from gearrom.excitation.slices import MicroMods, SliceMicroModel
 from gearrom.calibrate.simulator import ModelChanges, RunConditions, SimHistory
 from gearrom.errors import CalibrationError
+from gearrom.excitation.slices import MicroMods, SliceMicroModel
+from gearrom.rom.lawkernel import LawTables, law_force
+from gearrom.rom.mesh import MeshLaw
 
 
 @dataclass(frozen=True)
@@ -93,20 +97,17 @@ def _lookup(tab, x, period):
 
 
 @numba.njit(cache=True)
-def _rhs(t, y, p, ktab, etab, mper, ex1, ex2, rip):
+def _rhs(t, y, p, E, fv, mper, ex1, ex2, rip):
     # p: Jm J1 J2 JL kctrl cctrl ks cs kc cc rb1 rb2 cm Omega Tload Tff thm0 mesh_phase
     thm, th1, th2, thl, wm, w1, w2, wl = y[0], y[1], y[2], y[3], y[4], y[5], y[6], y[7]
     tc = p[4] * (p[13] * t + p[16] - thm) + p[5] * (p[13] - wm) + p[15]
     ts = p[6] * (thm - th1) + p[7] * (wm - w1)
-    k, _ = _lookup(ktab, th1 + p[17], mper)
-    e0, _ = _lookup(etab, th1 + p[17], mper)
     x1, d1 = _lookup(ex1, th1, 2 * np.pi)
     x2, d2 = _lookup(ex2, th2, 2 * np.pi)
-    delta = p[10] * th1 - p[11] * th2
-    ddelta = p[10] * w1 - p[11] * w2
-    f = k * (delta - e0 - x1 - x2) + p[12] * (ddelta - d1 * w1 - d2 * w2)
-    if f < 0.0:
-        f = 0.0
+    # the gears' kinematic errors shift the contact: the mesh law sees the deflection minus them
+    delta = p[10] * th1 - p[11] * th2 - x1 - x2
+    ddelta = p[10] * w1 - p[11] * w2 - d1 * w1 - d2 * w2
+    f = law_force(E, fv, (th1 + p[17]) / mper * E.shape[1], delta, ddelta, p[12])
     tcl = p[8] * (th2 - thl) + p[9] * (w2 - wl)
     tl = p[14] * (1.0 + rip[0] * np.cos(rip[1] * thl + rip[2]))
     out = np.empty(8)
@@ -119,7 +120,7 @@ def _rhs(t, y, p, ktab, etab, mper, ex1, ex2, rip):
 
 
 @numba.njit(cache=True)
-def _integrate(y0, h, n_steps, n_skip, p, ktab, etab, mper, ex1, ex2, rip):
+def _integrate(y0, h, n_steps, n_skip, p, E, fv, mper, ex1, ex2, rip):
     n_out = n_steps - n_skip + 1
     out = np.empty((n_out, 3))
     y = y0.copy()
@@ -131,10 +132,10 @@ def _integrate(y0, h, n_steps, n_skip, p, ktab, etab, mper, ex1, ex2, rip):
             k += 1
         if i == n_steps:
             break
-        a = _rhs(t, y, p, ktab, etab, mper, ex1, ex2, rip)
-        b = _rhs(t + h / 2, y + h / 2 * a, p, ktab, etab, mper, ex1, ex2, rip)
-        c = _rhs(t + h / 2, y + h / 2 * b, p, ktab, etab, mper, ex1, ex2, rip)
-        d = _rhs(t + h, y + h * c, p, ktab, etab, mper, ex1, ex2, rip)
+        a = _rhs(t, y, p, E, fv, mper, ex1, ex2, rip)
+        b = _rhs(t + h / 2, y + h / 2 * a, p, E, fv, mper, ex1, ex2, rip)
+        c = _rhs(t + h / 2, y + h / 2 * b, p, E, fv, mper, ex1, ex2, rip)
+        d = _rhs(t + h, y + h * c, p, E, fv, mper, ex1, ex2, rip)
         y = y + h / 6 * (a + 2 * b + 2 * c + d)
         t += h
     return out
@@ -269,7 +270,9 @@ class TorsionalRig:
                        rb1, rb2, cm, om, run.torque_out_Nm, t_ff, thm, ch.mesh_phase_rad])
         n_skip = int(round(self.warmup_s / self.h_s))
         n_steps = n_skip + int(math.ceil(run.duration_s / self.h_s))
-        out = _integrate(y0, self.h_s, n_steps, n_skip, pv, k_tab, e0, 2 * math.pi / z1, ex1, ex2, rip)
+        law = MeshLaw(self.pair, grid, k_tab, e0 + ft / k_tab, ft)  # the secant law at the run's torque
+        tab = LawTables.from_law(law)
+        out = _integrate(y0, self.h_s, n_steps, n_skip, pv, tab.E, tab.f, tab.period, ex1, ex2, rip)
         if not np.all(np.isfinite(out)):
             raise CalibrationError(f"torsional rig integration diverged at {run.rpm_in} rpm (step {self.h_s} s)")
         return SimHistory(out[:, 0] - out[0, 0], out[:, 1], out[:, 2],

@@ -7,9 +7,11 @@ ramp. The ROM here describes exactly that system and nothing of the test rig:
 * input gear angle prescribed: ``theta1 = Omega t`` (both gears start at speed, as in the FE);
 * output gear: one rotational DOF with the polar inertia ``J2`` of the FE's output-gear mesh
   (:func:`polar_inertia`, exact integral of ``rho b r^2`` over the meshed area);
-* the mesh force law of :mod:`gearrom.rom.mesh` on the transverse line of action,
-  ``F = k(phi) (delta - e0(phi)) + c d(delta)/dt`` while ``delta > e0`` (else 0: contact loss, no
-  back flank because the FE uses drive-flank contact only), ``e0 = e - F_nom / k``, with
+* the mesh force law of :mod:`gearrom.rom.mesh` (a :class:`~gearrom.rom.mesh.MeshLaw`, evaluated by
+  the compiled :func:`gearrom.rom.lawkernel.law_force` that the diagnosis' torsional model uses too)
+  on the transverse line of action: secant ``F = k(phi) (delta - e0(phi)) + c d(delta)/dt`` while
+  ``delta > e0`` (else 0: contact loss, no back flank because the FE uses drive-flank contact only),
+  ``e0 = e - F_nom / k``, or the load-dependent map (``mesh_law``), with
   ``delta = TE = rb1 theta1 - rb2 theta2`` (positive when the output lags) and
   ``c = 2 zeta sqrt(k_mean m_eq)``, ``m_eq = J2 / rb2^2``;
 * ``k(phi), e(phi)`` from a :class:`~gearrom.excitation.table.MeshExcitation` at the nominal torque,
@@ -31,11 +33,21 @@ import numpy as np
 from numba import njit
 
 from gearrom.errors import ModelError
+from gearrom.rom.lawkernel import LawTables, law_force
+from gearrom.rom.mesh import Effects, MeshLaw
 
 log = logging.getLogger(__name__)
 
-__all__ = ["PairRomSetup", "PairRomResult", "fe_start_mesh_phase", "table_samples", "polar_inertia", "mesh_excitation",
-           "scaled_excitation", "simulate_pair_rom"]
+__all__ = [
+    "PairRomResult",
+    "PairRomSetup",
+    "fe_start_mesh_phase",
+    "mesh_excitation",
+    "polar_inertia",
+    "scaled_excitation",
+    "simulate_pair_rom",
+    "table_samples",
+]
 
 
 def polar_inertia(nodes: np.ndarray, quads: np.ndarray, center, density: float, width: float) -> float:
@@ -88,7 +100,8 @@ def mesh_excitation(pair, torque: float, source: str = "fe", n_positions: int = 
     if source in ("fe", "auto"):
         try:
             if torque_map:
-                from gearrom.excitation.fe import fe_excitation, torque_map as torques_about
+                from gearrom.excitation.fe import fe_excitation
+                from gearrom.excitation.fe import torque_map as torques_about
 
                 torques = torques_about(float(torque))
                 ex = fe_excitation(pair, torques, n_positions)
@@ -97,7 +110,7 @@ def mesh_excitation(pair, torque: float, source: str = "fe", n_positions: int = 
 
             ex = stiffness_sweep(pair, [float(torque)], n_positions).to_excitation()
             return ex, f"fe_ltca ({n_positions} positions, {float(torque):g} N m)"
-        except Exception as exc:  # noqa: BLE001 - fall back only in 'auto'
+        except Exception as exc:
             if source == "fe":
                 raise
             log.warning("FE stiffness sweep failed (%s): using the analytical mesh table", exc)
@@ -148,6 +161,9 @@ class PairRomSetup:
         Mesh damping ratio zeta (the FE has none besides hourglass viscosity: keep it small).
     dt : float
         Integration step, s (0: 1/200 of the mesh period or 1/40 of the mesh mode period, whichever is smaller).
+    mesh_law : {"secant", "load-dependent"}
+        The mesh law (:class:`~gearrom.rom.mesh.MeshLaw`): the table's secant at ``torque_out``, or
+        its force-deflection map over the table's torques.
     """
 
     rpm_in: float
@@ -156,6 +172,7 @@ class PairRomSetup:
     inertia_out: float = 1e-4
     damping_ratio: float = 0.01
     dt: float = 0.0
+    mesh_law: str = "secant"
 
     def __post_init__(self) -> None:
         for name in ("rpm_in", "torque_out", "inertia_out"):
@@ -163,6 +180,8 @@ class PairRomSetup:
                 raise ModelError(f"PairRomSetup.{name} must be > 0, got {getattr(self, name)}")
         if not (self.damping_ratio >= 0 and self.torque_ramp_time >= 0 and self.dt >= 0):
             raise ModelError("PairRomSetup.damping_ratio, torque_ramp_time and dt must be >= 0")
+        if self.mesh_law not in ("secant", "load-dependent"):
+            raise ModelError(f"PairRomSetup.mesh_law must be 'secant' or 'load-dependent', got {self.mesh_law!r}")
 
 
 @dataclass(frozen=True, eq=False)
@@ -178,30 +197,22 @@ class PairRomResult:
 
 
 @njit(cache=True)
-def _rhs(t, x, v, om, phi0, period, kt, e0t, c, meq, T, tr, rb2, kin, kin_step):
-    n = kt.size
-    u = ((phi0 + om * t) % period) / period * n
-    i = int(u)
-    w = u - i
-    i0 = i % n
-    i1 = (i + 1) % n
-    k = kt[i0] * (1 - w) + kt[i1] * w
-    e0 = e0t[i0] * (1 - w) + e0t[i1] * w
+def _rhs(t, x, v, om, u0, du, E, f, c, meq, T, tr, rb2, kin, kin_step):
+    # the kinematic TE (facets) shifts the contact: the law sees the deflection minus it
+    xk = x
     if kin.size > 1:
-        u = min(om * t / kin_step, kin.size - 1.000001)
-        i = int(u)
-        e0 += kin[i] + (u - i) * (kin[i + 1] - kin[i])
-    f = 0.0
-    if x > e0:
-        f = k * (x - e0) + c * v
+        s = min(om * t / kin_step, kin.size - 1.000001)
+        i = int(s)
+        xk = x - (kin[i] + (s - i) * (kin[i + 1] - kin[i]))
+    force = law_force(E, f, u0 + du * t, xk, v, c)
     tq = T
     if tr > 0 and t < tr:
         tq = T * 0.5 * (1.0 - math.cos(math.pi * t / tr))
-    return (tq / rb2 - f) / meq, f
+    return (tq / rb2 - force) / meq, force
 
 
 @njit(cache=True)
-def _integrate(n_steps, dt, every, om, phi0, period, kt, e0t, c, meq, T, tr, rb2, kin, kin_step):
+def _integrate(n_steps, dt, every, om, u0, du, E, f, c, meq, T, tr, rb2, kin, kin_step):
     n_out = n_steps // every + 1
     xs = np.empty(n_out)
     fs = np.empty(n_out)
@@ -214,15 +225,17 @@ def _integrate(n_steps, dt, every, om, phi0, period, kt, e0t, c, meq, T, tr, rb2
         if s % every == 0:
             ts[j] = t
             xs[j] = x
-            fs[j] = _rhs(t, x, v, om, phi0, period, kt, e0t, c, meq, T, tr, rb2, kin, kin_step)[1]
+            fs[j] = _rhs(t, x, v, om, u0, du, E, f, c, meq, T, tr, rb2, kin, kin_step)[1]
             j += 1
         if s == n_steps:
             break
-        a1 = _rhs(t, x, v, om, phi0, period, kt, e0t, c, meq, T, tr, rb2, kin, kin_step)[0]
-        a2 = _rhs(t + 0.5 * dt, x + 0.5 * dt * v, v + 0.5 * dt * a1, om, phi0, period, kt, e0t, c, meq, T, tr, rb2, kin, kin_step)[0]
-        a3 = _rhs(t + 0.5 * dt, x + 0.5 * dt * (v + 0.5 * dt * a1), v + 0.5 * dt * a2, om, phi0, period, kt, e0t, c,
-                  meq, T, tr, rb2, kin, kin_step)[0]
-        a4 = _rhs(t + dt, x + dt * (v + 0.5 * dt * a2), v + dt * a3, om, phi0, period, kt, e0t, c, meq, T, tr, rb2, kin, kin_step)[0]
+        a1 = _rhs(t, x, v, om, u0, du, E, f, c, meq, T, tr, rb2, kin, kin_step)[0]
+        a2 = _rhs(t + 0.5 * dt, x + 0.5 * dt * v, v + 0.5 * dt * a1, om, u0, du, E, f, c, meq, T, tr, rb2, kin,
+                  kin_step)[0]
+        a3 = _rhs(t + 0.5 * dt, x + 0.5 * dt * (v + 0.5 * dt * a1), v + 0.5 * dt * a2, om, u0, du, E, f, c, meq, T, tr,
+                  rb2, kin, kin_step)[0]
+        a4 = _rhs(t + dt, x + dt * (v + 0.5 * dt * a2), v + dt * a3, om, u0, du, E, f, c, meq, T, tr, rb2, kin,
+                  kin_step)[0]
         x = x + dt * (v + dt / 6.0 * (a1 + a2 + a3))
         v = v + dt / 6.0 * (a1 + 2 * a2 + 2 * a3 + a4)
     return ts[:j], xs[:j], fs[:j]
@@ -258,14 +271,20 @@ def simulate_pair_rom(pair, excitation, setup: PairRomSetup, t_end: float, sampl
     """
     if not (t_end > 0 and sample_period > 0):
         raise ModelError(f"t_end and sample_period must be > 0 s, got {t_end}, {sample_period}")
-    rb1, rb2 = pair.rb
+    rb2 = pair.rb[1]
     z1 = pair.z[0]
     period = 2 * math.pi / z1
     om = setup.rpm_in * 2 * math.pi / 60
     phi0 = fe_start_mesh_phase(pair) if phase0 is None else float(phase0)
     k, e = table_samples(pair, excitation, setup.torque_out, n_table)
     f_nom = setup.torque_out / rb2
-    e0 = e - f_nom / k
+    fmap = None
+    if setup.mesh_law == "load-dependent":
+        from gearrom.rom.mesh import ForceMap
+
+        fmap = ForceMap.from_table(excitation, rb2, setup.torque_out, n_table)
+    law = MeshLaw(pair, np.arange(n_table) * period / n_table, k, e, f_nom, Effects(), fmap)
+    tab = LawTables.from_law(law)
     meq = setup.inertia_out / rb2**2
     kmean = float(k.mean())
     c = 2 * setup.damping_ratio * math.sqrt(kmean * meq)
@@ -279,8 +298,8 @@ def simulate_pair_rom(pair, excitation, setup: PairRomSetup, t_end: float, sampl
     kin_step, kin = (1.0, np.zeros(1)) if kinematic is None else (float(kinematic[0]), np.asarray(kinematic[1], float))
     if kin.size > 1 and not kin_step > 0:
         raise ModelError(f"kinematic TE step must be > 0 rad, got {kin_step}")
-    ts, xs, fs = _integrate(n_steps, dt, every, om, phi0, period, k, e0, c, meq, setup.torque_out,
-                            setup.torque_ramp_time, rb2, kin, kin_step)
+    ts, xs, fs = _integrate(n_steps, dt, every, om, phi0 / period * n_table, om / period * n_table, tab.E, tab.f, c,
+                            meq, setup.torque_out, setup.torque_ramp_time, rb2, kin, kin_step)
     wall = time.perf_counter() - t0
     meta = {"model": "1-DOF pair ROM (prescribed input speed, free output inertia), RK4/numba",
             "rpm_in": setup.rpm_in, "torque_out_Nm": setup.torque_out, "inertia_out_kgm2": setup.inertia_out,

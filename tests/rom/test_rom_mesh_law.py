@@ -15,7 +15,6 @@ import scipy.linalg
 from gearrom.excitation.table import MeshExcitation
 
 
-
 def _hertz_like_table(rb2: float) -> MeshExcitation:
     """A table of the law delta = e_kin(theta) + c F^(2/3) (stiffening with load, like Hertz contact)."""
     n = 64
@@ -48,11 +47,58 @@ def test_force_map_reproduces_the_law_at_its_knots():
     assert fm.force(knots, np.array([fm.e[2, 0]]), 1.1)[0] == pytest.approx(1.1 * ex.torque[1] / rb2)
     # tangent at the knot of 120 N m: chord over 60 and 240 N m of the analytic law
     F = ex.torque / rb2
-    e_of = lambda f: fm.e[0] + (fm.e[3] - fm.e[0]) * (f / F[2]) ** (2 / 3)  # noqa: E731
+    e_of = lambda f: fm.e[0] + (fm.e[3] - fm.e[0]) * (f / F[2]) ** (2 / 3)
     np.testing.assert_allclose(fm.tangent(F[2]), (F[3] - F[1]) / (e_of(F[3]) - e_of(F[1])), rtol=1e-9)
     # the analytic derivative dF/d(delta) = 1.5 F / (delta - e_kin) at 120 N m: the chord is within 6 %
     exact = 1.5 * F[2] / (fm.e[3] - fm.e[0])
     np.testing.assert_allclose(fm.tangent(F[2]), exact, rtol=0.06)
+
+
+def test_compiled_law_matches_the_analytic_law_and_the_map():
+    """The numba law of the integrators (:func:`gearrom.rom.lawkernel.law_force`) against the analytic
+    Hertz-like law at its knots and between them against the map's numpy evaluation; the secant
+    tables against ``k (delta - e0)``."""
+    from gearrom.rom.lawkernel import LawTables, law_force
+    from gearrom.rom.mesh import ForceMap
+
+    rb2 = 0.03
+    ex = _hertz_like_table(rb2)
+    fm = ForceMap.from_table(ex, rb2, 120.0, n=64)
+    period = 2 * np.pi / 20
+
+    class _Law:  # the two attributes LawTables reads from a load-dependent MeshLaw
+        z1 = 20
+        load_dependent = True
+        force_map = fm
+
+    tab = LawTables.from_law(_Law())
+    F = ex.torque / rb2
+    rng = np.random.default_rng(3)
+    for i in rng.integers(0, 64, 8):
+        for j in range(4):  # at the knots: the analytic law's forces
+            assert law_force(tab.E, tab.f, float(i), fm.e[j + 1, i], 0.0, 0.0) == pytest.approx(F[j], rel=1e-12)
+        assert law_force(tab.E, tab.f, float(i), fm.e[0, i] - 1e-9, 1.0, 1e3) == 0.0  # no contact, no damping
+    # between grid angles and knots, beyond the last knot, with damping: the map's own evaluation
+    u = rng.uniform(0, 128, 200)  # phase in grid steps, two periods
+    th = u * period / 64
+    knots = np.array([np.interp(np.mod(th, period), np.r_[fm.theta, period], np.r_[row, row[0]]) for row in fm.e]).T
+    delta = knots[:, 0] + rng.uniform(-0.2, 1.3, u.size) * (knots[:, -1] - knots[:, 0])
+    want = fm.force(knots, delta) + np.where(delta > knots[:, 0], 2e3 * 0.01, 0.0)
+    got = np.array([law_force(tab.E, tab.f, ui, di, 0.01, 2e3) for ui, di in zip(u, delta)])
+    np.testing.assert_allclose(got, want, rtol=1e-10, atol=1e-9)
+
+    class _Secant:
+        z1 = 20
+        load_dependent = False
+        k_grid = 2e8 * (1 + 0.2 * np.cos(20 * fm.theta))
+        e_grid = 1e-6 * np.sin(20 * fm.theta) + 5e-6
+        f_nom = 1000.0
+
+    sec = LawTables.from_law(_Secant())
+    e0 = _Secant.e_grid - _Secant.f_nom / _Secant.k_grid
+    for i in (0, 17, 40):
+        for d in (e0[i] + 1e-6, e0[i] + 9e-6):
+            assert law_force(sec.E, sec.f, float(i), d, 0.0, 0.0) == pytest.approx(_Secant.k_grid[i] * (d - e0[i]), rel=1e-12)
 
 
 @pytest.fixture(scope="module")
