@@ -6,7 +6,7 @@ that contract. Two implementations:
 
 * :class:`gearrom.calibrate.rig.TorsionalRig`: a small torsional drivetrain (numba RK4), always
   available, fast, with assumed rig values; it can re-tune rig parameters (``torsional_mode``).
-* :class:`RomSimulator`: adapter to the exudyn ROM ``gearrom.rom.simulate_run`` (issue 4): the
+* :class:`RomSimulator`: adapter to the exudyn ROM ``gearrom.rom.simulate_run``: the
   project's drivetrain model built from the configuration's ``[rig]`` description.
 
 :func:`default_simulator` picks the ROM for configurations that describe a rig, else the torsional
@@ -143,7 +143,7 @@ ROM_TUNABLE = {
 
 
 class RomSimulator:
-    """Adapter to the exudyn ROM of issue 4 (:func:`gearrom.rom.simulate_run`).
+    """Adapter to the exudyn ROM (:func:`gearrom.rom.simulate_run`).
 
     Mapping of :class:`ModelChanges`:
 

@@ -19,7 +19,8 @@ from gearrom.errors import ConfigError
 PLOT_SUFFIXES = (".png", ".pdf", ".svg", ".jpg", ".jpeg", ".eps", ".ps", ".tif", ".tiff", ".webp")
 
 
-def _fail(option: str, value: object, why: str) -> ConfigError:
+def option_error(option: str, value: object, why: str) -> ConfigError:
+    """The error for a bad command-line option: names the option and its value, and says why."""
     return ConfigError(f"{option}={value!r}: {why}")
 
 
@@ -60,7 +61,7 @@ def check_number(option: str, value: float | int | None, *, gt: float | None = N
         (isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value))
     if not ok or (gt is not None and not value > gt) or (ge is not None and not value >= ge) \
             or (le is not None and not value <= le):
-        raise _fail(option, value, f"must be {what}")
+        raise option_error(option, value, f"must be {what}")
 
 
 def _check_creatable(path: Path) -> None:
@@ -112,15 +113,15 @@ def check_output(option: str, value: str | Path | None, suffixes: Iterable[str] 
     if stdout and text == "-":
         return "-"
     if not text or "\x00" in text:
-        raise _fail(option, text, f"invalid {what} name")
+        raise option_error(option, text, f"invalid {what} name")
     path = Path(text)
     allowed = tuple(suffixes) if suffixes is not None else None
     if allowed is not None and path.suffix.lower() not in allowed:
-        raise _fail(option, text, f"unsupported {what} type {path.suffix or '(none)'!r}; supported: {', '.join(allowed)}")
+        raise option_error(option, text, f"unsupported {what} type {path.suffix or '(none)'!r}; supported: {', '.join(allowed)}")
     try:
         _check_creatable(path)
     except (OSError, ValueError) as exc:
-        raise _fail(option, text, str(exc)) from None
+        raise option_error(option, text, str(exc)) from None
     return path
 
 
@@ -130,14 +131,14 @@ def check_output_dir(option: str, value: str | Path | None) -> Path | None:
         return None
     text = str(value)
     if not text or "\x00" in text:
-        raise _fail(option, text, "invalid directory name")
+        raise option_error(option, text, "invalid directory name")
     path = Path(text)
     if path.exists() and not path.is_dir():
-        raise _fail(option, text, "exists and is not a directory")
+        raise option_error(option, text, "exists and is not a directory")
     try:
         _check_creatable(path / "_")
     except (OSError, ValueError) as exc:
-        raise _fail(option, text, str(exc)) from None
+        raise option_error(option, text, str(exc)) from None
     return path
 
 
@@ -147,7 +148,7 @@ def check_input_dir(option: str, value: str | Path | None) -> Path | None:
         return None
     text = str(value)
     if not text or "\x00" in text or not Path(text).is_dir():
-        raise _fail(option, text, "not an existing directory")
+        raise option_error(option, text, "not an existing directory")
     return Path(text)
 
 
@@ -191,12 +192,12 @@ def check_rpm_spec(option: str, spec: str | None, *, max_points: int = 1000, max
             vals = [float(v) for v in spec.split(",")]
             n = len(vals)
     except ValueError:
-        raise _fail(option, spec, "must be START:STOP:STEP (STEP > 0, STOP >= START) or a comma list of "
+        raise option_error(option, spec, "must be START:STOP:STEP (STEP > 0, STOP >= START) or a comma list of "
                                   "speeds [rpm]") from None
     if not all(math.isfinite(v) and 0 < v <= max_rpm for v in vals):
-        raise _fail(option, spec, f"speeds must be finite, > 0 and <= {max_rpm:g} rpm")
+        raise option_error(option, spec, f"speeds must be finite, > 0 and <= {max_rpm:g} rpm")
     if n > max_points:
-        raise _fail(option, spec, f"gives {n:g} speeds, more than {max_points}")
+        raise option_error(option, spec, f"gives {n:g} speeds, more than {max_points}")
 
 
 #: a load torque beyond this multiple of the operating torque exceeds any tooth's strength

@@ -99,13 +99,13 @@ MAX_RECORD_S = 3.2e7
 
 def check_read_args(args: argparse.Namespace) -> None:
     """Ranges of the options of :func:`add_read_args` (one line naming the option)."""
-    from gearrom.cli._args import _fail, check_number
+    from gearrom.cli._args import option_error, check_number
 
     # a record of more than a year is no rig recording: the bound keeps a typo from passing silently
     check_number("--t-start", args.t_start, ge=0, le=MAX_RECORD_S, unit="s", key="t_start_s")
     check_number("--t-end", args.t_end, gt=0, le=MAX_RECORD_S, unit="s", key="t_end_s")
     if args.t_start is not None and args.t_end is not None and not args.t_end > args.t_start:
-        raise _fail("--t-end", args.t_end, f"must be > --t-start={args.t_start!r}")
+        raise option_error("--t-end", args.t_end, f"must be > --t-start={args.t_start!r}")
     check_number("--min-speed-fraction", args.min_speed_fraction, gt=0, le=0.99, key="min_speed_fraction")
     check_number("--double-ratio", args.double_ratio, gt=0, le=0.99, key="double_ratio")
     check_number("--gap-ratio", args.gap_ratio, gt=1, le=100, key="gap_ratio")

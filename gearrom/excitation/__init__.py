@@ -1,7 +1,8 @@
 """Mesh excitation: the hand-off from the quasi-static mesh analysis to the dynamic model.
 
 :class:`MeshExcitation` (stiffness, static TE and load share over mesh phase and torque) and
-:func:`analytical_excitation` (ISO 6336-1 shaped analytical model, the default until FE tables exist).
+:func:`analytical_excitation` (ISO 6336-1 shaped analytical model, an explicit choice; the default is the quasi-static FE table of
+:mod:`gearrom.excitation.fe`).
 """
 from gearrom.excitation.analytical import analytical_excitation, iso_mesh_stiffness, iso_single_stiffness
 from gearrom.excitation.table import Harmonics, MeshExcitation

@@ -66,7 +66,9 @@ def iso_mesh_stiffness(pair: GearPair) -> float:
     return iso_single_stiffness(pair) * (0.75 * pair.eps_alpha + 0.25)
 
 
-def _shape_min(eps_alpha: float) -> float:
+def shape_min(eps_alpha: float) -> float:
+    """Minimum of the parabolic pair-stiffness shape (relative to the single-pair stiffness) whose mean
+    over a mesh cycle equals the ISO 6336 mesh stiffness at the transverse contact ratio ``eps_alpha``."""
     mean_f = (0.75 * eps_alpha + 0.25) / eps_alpha
     f_min = 3.0 * mean_f - 2.0
     if f_min < 0.0:
@@ -134,7 +136,7 @@ def analytical_excitation(pair: GearPair, torques_Nm, n_theta: int = 256, *, con
     period = 2 * math.pi / z1
     theta = np.arange(n_theta) * period / n_theta
     c_single = iso_single_stiffness(pair)
-    f_min = _shape_min(pair.eps_alpha)
+    f_min = shape_min(pair.eps_alpha)
     n_pairs = int(math.ceil(pair.eps_alpha + pair.eps_beta)) + 1
     s0 = pair.rb[0] * theta[:, None] + pair.pb_t * np.arange(n_pairs)[None, :]
     kp = pair_stiffness(s0, pair, c_single, f_min)  # (n_theta, n_pairs)

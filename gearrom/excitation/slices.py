@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from gearrom.errors import CalibrationError
-from gearrom.excitation.analytical import _shape_min, iso_single_stiffness
+from gearrom.excitation.analytical import shape_min, iso_single_stiffness
 from gearrom.excitation.table import MeshExcitation
 from gearrom.geometry.pair import GearPair
 
@@ -160,7 +160,7 @@ class SliceMicroModel:
         s = (pair.rb[0] * theta[:, None, None] + pair.pb_t * np.arange(n_pairs)[None, :, None]
              - y[None, None, :] * tb)  # (n_theta, n_pairs, n_slices)
         inside = (s >= 0) & (s <= g)
-        f_min = _shape_min(pair.eps_alpha)
+        f_min = shape_min(pair.eps_alpha)
         u = np.clip(s / g, 0, 1)
         k_sl = np.where(inside, iso_single_stiffness(pair) * (f_min + (1 - f_min) * 4 * u * (1 - u)) * (b / self.n_slices),
                         0.0)

@@ -43,7 +43,8 @@ def _rot(phi: float) -> np.ndarray:
     return np.array([[math.cos(phi), -math.sin(phi)], [math.sin(phi), math.cos(phi)]])
 
 
-def _frames(pair, theta: float):
+def frames_at(pair, theta: float):
+    """Rotation and origin of each gear's frame at input angle ``theta`` [rad] (0: start of the active mesh)."""
     phi1, phi2 = placement(pair, pair.roll_start_active[0] + pair.rb[0] * theta)
     return [(_rot(phi1), np.zeros(2)), (_rot(math.pi + phi2), np.array([0.0, pair.aw]))]
 
@@ -72,7 +73,7 @@ def export_vtu(ltca, theta: float, torque: float, path: str | Path, settings: Me
     cands = ltca.candidates(theta)
     pts_all, cells, disp, pres, vm, gear_id = [], [], [], [], [], []
     offset = 0
-    frames = _frames(pair, theta)
+    frames = frames_at(pair, theta)
     for i in range(2):
         g = pair.gears[i]
         body = ElasticBody2D(gear_mesh(pair, i, settings), g.material.youngs_modulus, g.material.poisson_ratio, g.face_width)
@@ -176,7 +177,7 @@ def export_inp(pair, theta: float, torque: float, path: str | Path, settings=Non
     s = settings or (DECK_MESH_2D.scaled(mesh_factor) if mesh_factor != 1.0 else DECK_MESH_2D)
     if s.refined_teeth < 1:
         s = dataclasses.replace(s, refined_teeth=1)
-    frames = _frames(pair, theta)
+    frames = frames_at(pair, theta)
     lines = ["*HEADING", f"gearrom spur pair, theta = {theta:.9g} rad, output torque = {torque:.9g} N m (mm, N, MPa)"]
     node_lines, elem_lines, sets = [], [], {}
     nid, eid = 0, 0

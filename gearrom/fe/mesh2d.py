@@ -142,7 +142,9 @@ def gmsh_session(name: str):
             gmsh.finalize()
 
 
-def _extract(gmsh, named: dict[str, list[int]], bore_curves: list[int]) -> Mesh2D:
+def extract_mesh(gmsh, named: dict[str, list[int]], bore_curves: list[int]) -> Mesh2D:
+    """The generated 2D triangle mesh of the open gmsh model as a checked :class:`Mesh2D`: unused nodes
+    dropped, triangles counter-clockwise, boundary edges of each named curve group and the bore nodes."""
     tags, coords, _ = gmsh.model.mesh.getNodes()
     pts = coords.reshape(-1, 3)[:, :2]
     index = np.full(int(tags.max()) + 1, -1, dtype=np.int64)
@@ -175,7 +177,9 @@ def _extract(gmsh, named: dict[str, list[int]], bore_curves: list[int]) -> Mesh2
     return mesh
 
 
-def _threshold(gmsh, curve_tags: list[int], size_min: float, size_max: float, d_min: float, d_max: float) -> int:
+def threshold_field(gmsh, curve_tags: list[int], size_min: float, size_max: float, d_min: float, d_max: float) -> int:
+    """A gmsh size field [m]: ``size_min`` within ``d_min`` of the curves, growing to ``size_max`` at ``d_max``;
+    returns the field tag."""
     f = gmsh.model.mesh.field
     dist = f.add("Distance")
     f.setNumbers(dist, "CurvesList", curve_tags)
@@ -189,7 +193,8 @@ def _threshold(gmsh, curve_tags: list[int], size_min: float, size_max: float, d_
     return th
 
 
-def _finish(gmsh, fields: list[int], algorithm: int = 6) -> None:
+def finish_mesh(gmsh, fields: list[int], algorithm: int = 6) -> None:
+    """Mesh the open gmsh model in 2D with the minimum of the size ``fields`` as the only size source."""
     f = gmsh.model.mesh.field
     mn = f.add("Min")
     f.setNumbers(mn, "FieldsList", fields)
@@ -245,7 +250,7 @@ def clean_profile(prof):
     )
 
 
-_clean_profile = clean_profile  # old private name (kept for gearrom.fe.explicit.gearmesh)
+clean_profile = clean_profile  # old private name (kept for gearrom.fe.explicit.gearmesh)
 
 
 def gear_mesh(pair, i: int, settings: MeshSettings | None = None, tip_edge_radius: float | None = None) -> Mesh2D:
@@ -334,12 +339,12 @@ def gear_mesh(pair, i: int, settings: MeshSettings | None = None, tip_edge_radiu
                    for n in ("fillet_r", "fillet_l", "root_r", "root_l") for c in named.get(f"{n}_{j}", [])]
         near = [c for key, cs in named.items() for c in cs]
         fields = [
-            _threshold(gmsh, fine, s.flank_size, s.tooth_size, 2 * s.flank_size, s.grading),
-            _threshold(gmsh, fillets, 0.5 * s.tooth_size, s.body_size, 0.3e-3, 3e-3),
-            _threshold(gmsh, near, s.tooth_size, s.body_size, 0.2 * pair.mn, 3 * pair.mn),
+            threshold_field(gmsh, fine, s.flank_size, s.tooth_size, 2 * s.flank_size, s.grading),
+            threshold_field(gmsh, fillets, 0.5 * s.tooth_size, s.body_size, 0.3e-3, 3e-3),
+            threshold_field(gmsh, near, s.tooth_size, s.body_size, 0.2 * pair.mn, 3 * pair.mn),
         ]
-        _finish(gmsh, fields)
-        mesh = _extract(gmsh, named, arcs)
+        finish_mesh(gmsh, fields)
+        mesh = extract_mesh(gmsh, named, arcs)
     log.info("gear %d mesh: %d nodes, %d triangles", i, mesh.points.shape[0], mesh.triangles.shape[0])
     return mesh
 
@@ -362,9 +367,9 @@ def disk_mesh(radius: float, bore: float, fine_size: float, coarse_size: float, 
         arcs = [geo.addCircleArc(pi_[n], c0, pi_[(n + 1) % 4]) for n in range(4)]
         geo.addPlaneSurface([outer, geo.addCurveLoop(arcs)])
         geo.synchronize()
-        fields = [_threshold(gmsh, [contact], fine_size, coarse_size, fine_zone, 0.5 * radius)]
-        _finish(gmsh, fields)
-        return _extract(gmsh, {"contact": [contact]}, arcs)
+        fields = [threshold_field(gmsh, [contact], fine_size, coarse_size, fine_zone, 0.5 * radius)]
+        finish_mesh(gmsh, fields)
+        return extract_mesh(gmsh, {"contact": [contact]}, arcs)
 
 
 FE_SECTION_KEYS = {

@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from gearrom.errors import MeshError
-from gearrom.fe.mesh2d import SEGMENT_NAMES, Mesh2D, _clean_profile, _extract, _finish, _threshold, gmsh_session
+from gearrom.fe.mesh2d import SEGMENT_NAMES, Mesh2D, clean_profile, extract_mesh, finish_mesh, threshold_field, gmsh_session
 
 log = logging.getLogger(__name__)
 
@@ -141,7 +141,7 @@ def section_mesh(pair, i: int, s: Mesh3DSettings) -> Mesh2D:
     n = s.teeth
     if 2 * n + 1 > z // 2:
         raise MeshError(f"gear {i}: a {2 * n + 1}-tooth elastic sector needs z >= {2 * (2 * n + 1)}, got {z}")
-    prof = _clean_profile(tooth_profile(pair, i, n_involute=60, n_fillet=30, n_tip=6, n_root=6))
+    prof = clean_profile(tooth_profile(pair, i, n_involute=60, n_fillet=30, n_tip=6, n_root=6))
     keys = list(zip(prof.segment, prof.side))
     runs, start = [], 0
     for k in range(1, len(keys)):
@@ -185,15 +185,15 @@ def section_mesh(pair, i: int, s: Mesh3DSettings) -> Mesh2D:
         fillet0 = [c for key in ("fillet_r_0", "root_r_0", "fillet_l_0", "root_l_0") for c in named.get(key, [])]
         teeth = [c for cs in named.values() for c in cs]
         fields = [
-            _threshold(gmsh, fine, s.flank_size, s.tooth_size, 1.5 * s.flank_size, s.grading),
-            _threshold(gmsh, fillet0, s.tooth_size, s.body_size, 0.3e-3, 2e-3),
-            _threshold(gmsh, teeth, s.tooth_size, s.body_size, 0.1 * pair.mn, 1.5 * pair.mn),
+            threshold_field(gmsh, fine, s.flank_size, s.tooth_size, 1.5 * s.flank_size, s.grading),
+            threshold_field(gmsh, fillet0, s.tooth_size, s.body_size, 0.3e-3, 2e-3),
+            threshold_field(gmsh, teeth, s.tooth_size, s.body_size, 0.1 * pair.mn, 1.5 * pair.mn),
         ]
         for f in fields[:2]:  # the fine fields stop at their DistMax (else their SizeMax caps the body)
             gmsh.model.mesh.field.setNumber(f, "StopAtDistMax", 1)
         gmsh.option.setNumber("Mesh.MeshSizeMax", s.body_size)
-        _finish(gmsh, fields)
-        mesh = _extract(gmsh, named, bore)
+        finish_mesh(gmsh, fields)
+        mesh = extract_mesh(gmsh, named, bore)
     return mesh
 
 

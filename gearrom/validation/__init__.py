@@ -1,4 +1,4 @@
-"""ROM-vs-explicit-FE validation (issue 5): the pair ROM of the FE's system, TE metrics, reports.
+"""ROM-vs-explicit-FE validation: the pair ROM of the FE's system, TE metrics, reports.
 
 Entry points: :func:`gearrom.validation.report.validate` (CLI ``gearrom validate``),
 :func:`gearrom.validation.pair_rom.simulate_pair_rom`, :func:`gearrom.validation.compare.te_metrics`.

@@ -1,4 +1,4 @@
-"""TE metrics on a steady window and the ROM-vs-FE comparison with the tolerances of issue 5.
+"""TE metrics on a steady window and the ROM-vs-FE comparison with the validation tolerances.
 
 All angles are the *input-gear* angle measured from a common origin (the explicit FE's start
 position), so that phases of the ROM and the FE refer to the same gear position. A mesh order ``m``

@@ -1,4 +1,4 @@
-"""Quasi-static check of the explicit FE: a slow run against the quasi-static STE (issue 5).
+"""Quasi-static check of the explicit FE: a slow run against the quasi-static STE.
 
 At 60 rpm the mesh frequency of the seed's spur pair (32 Hz) is two orders of magnitude below its
 mesh mode, so the explicit FE's TE must reproduce the quasi-static STE of the LTCA (gearrom.fe) at
@@ -6,7 +6,7 @@ the same torque. Both describe the same discretised gears when the kinematic TE 
 FE's faceted outlines (gearrom.validation.facets) is added to the LTCA's STE; the comparison is
 reported both with and without it.
 
-Verdict (issue 5: "within 5 % of the quasi-static STE"): the mean TE over the recorded mesh period
+Verdict ("within 5 % of the quasi-static STE"): the mean TE over the recorded mesh period
 within 5 %, and the RMS of the difference of the two curves (mean removed from neither) within 5 %
 of the mean STE.
 """
@@ -21,7 +21,7 @@ from gearrom.validation.report import DEFAULT_FE_DIR, facet_kinematic_te, load_f
 
 __all__ = ["TOLERANCE", "quasistatic_check"]
 
-#: relative tolerance of issue 5 for the slow run against the quasi-static STE
+#: relative tolerance for the slow run against the quasi-static STE
 TOLERANCE = 0.05
 
 

@@ -1,4 +1,4 @@
-"""Static vs dynamic parts of the ROM-vs-explicit-FE miss (issue 5, "the same discretised gears").
+"""Static vs dynamic parts of the ROM-vs-explicit-FE miss ("the same discretised gears").
 
 The pair ROM (:mod:`gearrom.validation.pair_rom`) and the explicit FE differ in two ways: the mesh
 table (the quasi-static LTCA on P2 triangles vs the explicit model's Q4 elements and penalty contact:

@@ -283,7 +283,7 @@ def facet_closest(x, segs, s, n):
 
 
 @njit(cache=True, fastmath=True)
-def _signed_gap_3d(x, segs, g_rad, seg_open, cand, ncand, i, n, cutoff=1e300):
+def _signed_gap_3d(x, segs, g_rad, seg_open, cand, ncand, i, n, lbs, order, cutoff=1e300):
     """Nearest master feature of slave ``i`` (node ``n``) among its candidates.
 
     Returns (facet or -1, xi, eta, signed gap (negative = penetration), contact normal): the distance to the
@@ -295,10 +295,9 @@ def _signed_gap_3d(x, segs, g_rad, seg_open, cand, ncand, i, n, cutoff=1e300):
     (distance to the corners' centroid) - (largest corner distance from that centroid). Candidates are
     taken in the order of that bound and those whose bound exceeds the best distance found are skipped
     (no Newton projection); facet -1 is returned at once when every bound reaches ``cutoff`` (m).
+    ``lbs`` (float) and ``order`` (int64), at least ``ncand[i]`` long, are scratch.
     """
     K = ncand[i]
-    lbs = np.empty(K)
-    order = np.empty(K, np.int64)
     lbmin = 1e300
     for m in range(K):
         s = cand[i, m]
@@ -365,14 +364,106 @@ def _signed_gap_3d(x, segs, g_rad, seg_open, cand, ncand, i, n, cutoff=1e300):
 def signed_gaps_3d(x, slaves, segs, g_rad, cand, ncand, seg_open):
     """Signed gap of every slave node (m; NaN without a master feature in reach), as the 3D contact sees it."""
     out = np.full(slaves.shape[0], np.nan)
+    lbs = np.empty(cand.shape[1])
+    order = np.empty(cand.shape[1], np.int64)
     for i in range(slaves.shape[0]):
-        best, bxi, beta, g, a, b, c = _signed_gap_3d(x, segs, g_rad, seg_open, cand, ncand, i, slaves[i])
+        best, bxi, beta, g, a, b, c = _signed_gap_3d(x, segs, g_rad, seg_open, cand, ncand, i, slaves[i], lbs, order)
         if best >= 0:
             out[i] = g
     return out
 
 
+@njit(cache=True)
+def open_edge_allowance(g_rad):
+    """Tangential reach (m) beyond an open surface edge: ``OPEN_TOL`` times the largest facet radius (see
+    :func:`contact_forces_3d`); a node farther than the capture depth plus this from every facet is not
+    in contact."""
+    g_rad_max = 0.0
+    for s in range(g_rad.shape[0]):
+        g_rad_max = max(g_rad_max, g_rad[s])
+    return OPEN_TOL * g_rad_max
+
+
+@njit(cache=True, inline="always")
+def _shape_q4(xi, eta):
+    """Bilinear shape functions of a facet's four nodes at (xi, eta)."""
+    return (0.25 * (1 - xi) * (1 - eta), 0.25 * (1 + xi) * (1 - eta),
+            0.25 * (1 + xi) * (1 + eta), 0.25 * (1 - xi) * (1 + eta))
+
+
 @njit(cache=True, fastmath=True)
+def contact_slave_3d(x, v, slaves, s_pair, segs, g_k, g_rad, cand, ncand, p_mu, p_vreg, p_depth, seg_open,
+                     allowance, i, lbs, order, out):
+    """Contact of slave ``i`` alone (touches only row ``i`` of ``out`` and of the scratch ``lbs``,
+    ``order`` (ns, K)): the slaves can be processed in parallel, :func:`contact_scatter_3d` then adds the
+    forces. ``allowance``: :func:`open_edge_allowance`. ``out[i]``: facet (-1: no contact), xi, eta,
+    force x, y, z on the slave [N], gap [m], penalty energy [J], friction power [W]."""
+    out[i, 0] = -1.0
+    if ncand[i] == 0:
+        return
+    n = slaves[i]
+    p = s_pair[i]
+    depth = p_depth[p]
+    best, bxi, beta, bg, bn0, bn1, bn2 = _signed_gap_3d(x, segs, g_rad, seg_open, cand, ncand, i, n,
+                                                        lbs[i], order[i], depth + allowance)
+    if best < 0 or bg >= 0.0 or -bg >= depth:
+        return   # no facet, outside the master body, or deeper than the capture depth
+    k = g_k[best]
+    fn = -k * bg
+    fx = fn * bn0; fy = fn * bn1; fz = fn * bn2
+    mu = p_mu[p]
+    pfric = 0.0
+    if mu > 0.0:
+        N = _shape_q4(bxi, beta)
+        vx = v[n, 0]; vy = v[n, 1]; vz = v[n, 2]
+        for q in range(4):
+            nd = segs[best, q]
+            vx -= N[q] * v[nd, 0]; vy -= N[q] * v[nd, 1]; vz -= N[q] * v[nd, 2]
+        vn = vx * bn0 + vy * bn1 + vz * bn2
+        vtx = vx - vn * bn0; vty = vy - vn * bn1; vtz = vz - vn * bn2
+        vt2 = vtx * vtx + vty * vty + vtz * vtz
+        sc = mu * fn / math.sqrt(vt2 + p_vreg[p] * p_vreg[p])
+        fx -= sc * vtx; fy -= sc * vty; fz -= sc * vtz
+        pfric = sc * vt2
+    out[i, 0] = best
+    out[i, 1] = bxi
+    out[i, 2] = beta
+    out[i, 3] = fx
+    out[i, 4] = fy
+    out[i, 5] = fz
+    out[i, 6] = bg
+    out[i, 7] = 0.5 * k * bg * bg
+    out[i, 8] = pfric
+
+
+@njit(cache=True, fastmath=True)
+def contact_scatter_3d(slaves, segs, out, f, gap):
+    """Add the forces of :func:`contact_slave_3d` (rows of ``out``) to ``f``: the slave node gets the
+    force, the facet's nodes minus the force times their shape functions at the projection. Fills
+    ``gap``; returns (penalty energy, friction power)."""
+    epot = 0.0
+    pfric = 0.0
+    for i in range(slaves.shape[0]):
+        gap[i] = 0.0
+        if out[i, 0] < 0.0:
+            continue
+        s = int(out[i, 0])
+        bxi = out[i, 1]
+        beta = out[i, 2]
+        fx = out[i, 3]; fy = out[i, 4]; fz = out[i, 5]
+        gap[i] = out[i, 6]
+        epot += out[i, 7]
+        pfric += out[i, 8]
+        n = slaves[i]
+        f[n, 0] += fx; f[n, 1] += fy; f[n, 2] += fz
+        N = _shape_q4(bxi, beta)
+        for q in range(4):
+            nd = segs[s, q]
+            f[nd, 0] -= N[q] * fx; f[nd, 1] -= N[q] * fy; f[nd, 2] -= N[q] * fz
+    return epot, pfric
+
+
+@njit(cache=True)
 def contact_forces_3d(x, v, slaves, s_pair, segs, g_k, g_rad, cand, ncand, p_mu, p_vreg, p_depth, f, gap, seg_open):
     """Add 3D node-to-bilinear-facet penalty/friction forces to ``f``; see :func:`contact_forces_2d`.
 
@@ -385,48 +476,17 @@ def contact_forces_3d(x, v, slaves, s_pair, segs, g_k, g_rad, cand, ncand, p_mu,
     (continuous with the inside zone); farther out it is not in contact. Without that rule a node
     sliding past the end of a cut master flank switched from no contact to a penetration as deep as its
     distance to the edge (tens of um) when it crossed the facet plane: 0.1-1 J out of nothing per event.
+
+    Serial form of the two passes that the time loop runs with the slaves in parallel
+    (:func:`contact_slave_3d`, then :func:`contact_scatter_3d`).
     """
-    epot = 0.0
-    pfric = 0.0
-    g_rad_max = 0.0
-    for s in range(g_rad.shape[0]):
-        g_rad_max = max(g_rad_max, g_rad[s])
-    for i in range(slaves.shape[0]):
-        gap[i] = 0.0
-        if ncand[i] == 0:
-            continue
-        n = slaves[i]
-        p = s_pair[i]
-        depth = p_depth[p]
-        # no contact unless some facet is within the capture depth (+ the open-edge allowance)
-        cutoff = depth + OPEN_TOL * g_rad_max
-        best, bxi, beta, bg, bn0, bn1, bn2 = _signed_gap_3d(x, segs, g_rad, seg_open, cand, ncand, i, n, cutoff)
-        if best < 0 or bg >= 0.0 or -bg >= depth:
-            continue   # no facet, outside the master body, or deeper than the capture depth
-        N0 = 0.25 * (1 - bxi) * (1 - beta)
-        N1 = 0.25 * (1 + bxi) * (1 - beta)
-        N2 = 0.25 * (1 + bxi) * (1 + beta)
-        N3 = 0.25 * (1 - bxi) * (1 + beta)
-        N = (N0, N1, N2, N3)
-        k = g_k[best]
-        fn = -k * bg
-        gap[i] = bg
-        epot += 0.5 * k * bg * bg
-        fx = fn * bn0; fy = fn * bn1; fz = fn * bn2
-        mu = p_mu[p]
-        if mu > 0.0:
-            vx = v[n, 0]; vy = v[n, 1]; vz = v[n, 2]
-            for q in range(4):
-                nd = segs[best, q]
-                vx -= N[q] * v[nd, 0]; vy -= N[q] * v[nd, 1]; vz -= N[q] * v[nd, 2]
-            vn = vx * bn0 + vy * bn1 + vz * bn2
-            vtx = vx - vn * bn0; vty = vy - vn * bn1; vtz = vz - vn * bn2
-            vt2 = vtx * vtx + vty * vty + vtz * vtz
-            sc = mu * fn / math.sqrt(vt2 + p_vreg[p] * p_vreg[p])
-            fx -= sc * vtx; fy -= sc * vty; fz -= sc * vtz
-            pfric += sc * vt2
-        f[n, 0] += fx; f[n, 1] += fy; f[n, 2] += fz
-        for q in range(4):
-            nd = segs[best, q]
-            f[nd, 0] -= N[q] * fx; f[nd, 1] -= N[q] * fy; f[nd, 2] -= N[q] * fz
-    return epot, pfric
+    ns = slaves.shape[0]
+    K = cand.shape[1]
+    lbs = np.empty((ns, K))
+    order = np.empty((ns, K), np.int64)
+    out = np.empty((ns, 9))
+    allowance = open_edge_allowance(g_rad)
+    for i in range(ns):
+        contact_slave_3d(x, v, slaves, s_pair, segs, g_k, g_rad, cand, ncand, p_mu, p_vreg, p_depth, seg_open,
+                         allowance, i, lbs, order, out)
+    return contact_scatter_3d(slaves, segs, out, f, gap)

@@ -19,7 +19,7 @@ import numpy as np
 from gearrom.errors import MeshError
 
 
-def _closed_outline(pair, i: int, density: int = 1) -> np.ndarray:
+def closed_outline(pair, i: int, density: int = 1) -> np.ndarray:
     """Closed outline of all teeth; ``density`` multiplies the points per profile section."""
     from gearrom.fe.mesh2d import clean_profile   # same cleaning as the quasi-static meshes
     from gearrom.fe.tipedge import tip_edge_radius
@@ -34,7 +34,7 @@ def _closed_outline(pair, i: int, density: int = 1) -> np.ndarray:
     return np.vstack(parts)
 
 
-def _resample_closed(poly: np.ndarray, h: float, sag: float | None = None, h_min: float | None = None,
+def resample_closed(poly: np.ndarray, h: float, sag: float | None = None, h_min: float | None = None,
                      r_refine: float = 0.0) -> np.ndarray:
     """Points along the closed polyline ``poly`` at spacing ``h``, or finer where it curves.
 
@@ -99,7 +99,7 @@ def gear_quad_mesh(pair, i: int, outline_size: float, body_size: float | None = 
     """Q4 mesh of gear ``i`` of ``pair``; ``project`` puts the outline nodes on the generated profile.
 
     ``sag`` (m): refine the outline above the base circle where it curves (flanks, tip-edge roundings) so
-    that its chords stay within ``sag`` of the profile (:func:`_resample_closed`; at most 4 times finer
+    that its chords stay within ``sag`` of the profile (:func:`resample_closed`; at most 4 times finer
     than ``outline_size``); the fillets below the base circle, which never touch, keep ``outline_size``.
     The smaller elements there lower the stable step unless mass scaling lifts it
     (:class:`gearrom.fe.explicit.model.ExplicitModel`).
@@ -116,15 +116,15 @@ def gear_quad_mesh(pair, i: int, outline_size: float, body_size: float | None = 
     if not 0 < outline_size <= body_size:
         raise MeshError(f"gear_quad_mesh needs 0 < outline_size <= body_size, got {outline_size}, {body_size}")
     if sag is None:
-        outline = _resample_closed(_closed_outline(pair, i), 2 * outline_size)   # halved below
+        outline = resample_closed(closed_outline(pair, i), 2 * outline_size)   # halved below
     else:
-        outline = _resample_closed(_closed_outline(pair, i, density=10), 2 * outline_size, sag,
+        outline = resample_closed(closed_outline(pair, i, density=10), 2 * outline_size, sag,
                                    r_refine=pair.rb[i])
     last = None
     for algo, blossom, smooth in _ATTEMPTS:   # gmsh quads are occasionally degenerate at the root
         mesh = _mesh(pair, i, outline, outline_size, body_size, grading, algo, blossom, smooth)
         if project:
-            mesh = _projected(mesh, _closed_outline(pair, i, density=10))
+            mesh = _projected(mesh, closed_outline(pair, i, density=10))
         try:
             element_geometry(mesh[0], mesh[1])
             return mesh

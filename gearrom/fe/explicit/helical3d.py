@@ -112,9 +112,9 @@ def _project_outline(pair, i: int, nodes: np.ndarray, quads: np.ndarray, bore: n
     """Outline (non-bore boundary) nodes moved to the nearest point of the dense generated outline."""
     from scipy.spatial import cKDTree
 
-    from gearrom.fe.explicit.gearmesh import _closed_outline, _resample_closed
+    from gearrom.fe.explicit.gearmesh import closed_outline, resample_closed
 
-    dense = _resample_closed(_closed_outline(pair, i), spacing)
+    dense = resample_closed(closed_outline(pair, i), spacing)
     b = set(int(k) for k in bore)
     ids = np.array(sorted(set(np.unique(boundary_segments(quads)).tolist()) - b))
     dist, j = cKDTree(dense).query(nodes[ids])

@@ -22,9 +22,11 @@ import math
 import types
 from pathlib import Path
 
+import numpy as np
 from numba import njit, prange
 
-from gearrom.fe.explicit.contact import contact_forces_2d, contact_forces_3d, contact_search
+from gearrom.fe.explicit.contact import (contact_forces_2d, contact_scatter_3d, contact_search, contact_slave_3d,
+                                         open_edge_allowance)
 from gearrom.fe.explicit.kernels import hex8_element, hex8_full_element, q4_element, q4_full_element
 
 NE_OUT = 10
@@ -89,6 +91,12 @@ def _run_loop(nsteps, dt, out_every, t0,
     wint = 0.0
     whg = 0.0
     epen = 0.0
+    # 3D contact: scratch and per-slave results of the parallel pass (contact_slave_3d)
+    ns = slaves.shape[0] if dim == 3 else 0
+    c_lb = np.empty((ns, cand.shape[1]))
+    c_ord = np.empty((ns, cand.shape[1]), np.int64)
+    c_out = np.empty((ns, 9))
+    allowance = open_edge_allowance(g_rad) if dim == 3 else 0.0
     for step in range(nsteps + 1):
         t = t0 + step * dt
         if step > 0:
@@ -183,15 +191,18 @@ def _run_loop(nsteps, dt, out_every, t0,
         pfr = 0.0
         if slaves.shape[0] > 0:
             # contact works on current positions: x = X + u, held in ``a`` temporarily
-            for i in range(n):
+            for i in prange(n):
                 for d in range(dim):
                     a[i, d] = X[i, d] + u[i, d]
             if dim == 2:
                 epen, pfr = contact_forces_2d(a, v, slaves, s_pair, segs, g_k, cand, ncand,
                                               p_mu, p_vreg, p_depth, f, gap)
             else:
-                epen, pfr = contact_forces_3d(a, v, slaves, s_pair, segs, g_k, g_rad, cand, ncand,
-                                              p_mu, p_vreg, p_depth, f, gap, seg_open)
+                # each slave's contact in parallel, then the forces added serially (shared master nodes)
+                for i in prange(ns):
+                    contact_slave_3d(a, v, slaves, s_pair, segs, g_k, g_rad, cand, ncand, p_mu, p_vreg, p_depth,
+                                     seg_open, allowance, i, c_lb, c_ord, c_out)
+                epen, pfr = contact_scatter_3d(slaves, segs, c_out, f, gap)
         if step > 0:
             acc[1] += pfr * dt
         # ---- nodal loads (trapezoidal work)
