@@ -12,7 +12,8 @@ from gearrom.errors import ConfigError, ModelError, RunInterrupted
 from gearrom.fe.explicit.geometry import (color_elements, element_geometry, element_max_eigenvalue,
                                           element_max_eigenvalue_full, full_integration_data,
                                           hourglass_coefficients, nodal_omega2)
-from gearrom.fe.explicit.loop import NE_OUT, ramp, run_loop_parallel, run_loop_serial
+from gearrom.fe.explicit.loop import (CONTACT_ARRAYS, ELEMENT_ARRAYS, LOAD_ARRAYS, NE_OUT, NODE_ARRAYS, OUTPUT_ARRAYS,
+                                      REFERENCE_ARRAYS, STATE_ARRAYS, ramp, run_loop_parallel, run_loop_serial)
 from gearrom.fe.explicit.model import ExplicitModel
 from gearrom.fe.explicit.result import ExplicitResult
 
@@ -460,21 +461,15 @@ def solve(model: ExplicitModel, t_end: float, sample_period: float | None = None
         # chunk 0 writes rows [0, n_out]; a later chunk starts by rewriting the previous last row
         sl = slice(row - 1 if c else 0, None)
         o = {k: x[sl] for k, x in out.items()}
-        written = run_loop(nsteps, step_dt, out_every, t0, model.nodes, st["u"], st["v"], st["a"], st["f"],
-                           d["mass"], d["kind"], d["fixmask"], model.mass_damping, d["body"],
-                           model.relative_damping, d["r_center"], d["r_fd"], d["conn"], d["B"], d["V0"],
-                           d["gamma"], d["khg"], d["chg"], d["lam"], d["mu"], d["cptr"], d["full"], d["Bg"],
-                           d["Wg"], d["ld_nodes"], d["ld_ptr"], d["ld_force"], d["ld_t"], d["ld_val"],
-                           d["ld_npts"], st["ld_fprev"], st["ld_uprev"],
-                           d["r_nodes"], d["r_ptr"], d["r_off"], d["r_M"], d["r_J"], d["r_mode"],
-                           d["r_speed"], d["r_ramp"], d["r_torque"], d["r_tramp"], d["r_k"], d["r_c"],
-                           d["r_fixtr"], d["r_kb"], d["r_cb"], st["r_pos"], st["r_vel"], st["r_acc"],
-                           st["r_th"], st["r_om"], st["r_al"], st["r_prev"],
-                           d["slaves"], d["s_pair"], d["segs"], d["g_pair"], d["g_k"], d["g_rad"], d["p_mu"],
-                           d["p_vreg"], d["p_depth"], d["margin"], d["cell_h"], st["head"], st["nxt"],
-                           st["cand"], st["ncand"], st["gap"], d["seg_open"], d["c_nodes"], st["c_usearch"],
-                           st["acc"], o["out_t"], o["out_E"], o["out_th"], o["out_om"], o["out_tq"],
-                           o["out_pos"], probes, o["out_pu"], o["out_pv"])
+        src = {**d, **st, **o, "X": model.nodes, "probes": probes}
+
+        def group(names):
+            return tuple(src[k] for k in names)
+
+        written = run_loop(nsteps, step_dt, out_every, t0, model.mass_damping, model.relative_damping,
+                           d["margin"], d["cell_h"], group(STATE_ARRAYS), group(NODE_ARRAYS),
+                           group(ELEMENT_ARRAYS), group(LOAD_ARRAYS), group(REFERENCE_ARRAYS),
+                           group(CONTACT_ARRAYS), group(OUTPUT_ARRAYS), st["acc"])
         row = (row - 1 if c else 0) + written
         t0 += nsteps * step_dt
         steps_run += nsteps

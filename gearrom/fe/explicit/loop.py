@@ -69,21 +69,41 @@ def _table(t, times, vals, npts):
     return vals[npts - 1]
 
 
-def _run_loop(nsteps, dt, out_every, t0,
-             X, u, v, a, f, mass, kind, fixmask, alpha, body, alpha_r, r_center, r_fd,
-             conn, B, V0, gamma, khg, chg, lam, mu, cptr, full, Bg, Wg,
-             ld_nodes, ld_ptr, ld_force, ld_t, ld_val, ld_npts, ld_fprev, ld_uprev,
-             r_nodes, r_ptr, r_off, r_M, r_J, r_mode, r_speed, r_ramp, r_torque, r_tramp,
-             r_k, r_c, r_fixtr, r_kb, r_cb, r_pos, r_vel, r_acc, r_th, r_om, r_al, r_prev,
-             slaves, s_pair, segs, g_pair, g_k, g_rad, p_mu, p_vreg, p_depth, margin, cell_h,
-             head, nxt, cand, ncand, gap, seg_open, c_nodes, c_usearch,
-             acc, out_t, out_E, out_th, out_om, out_tq, out_pos, probes, out_pu, out_pv):
+#: names of the arrays in each argument group of the loop, in order (the driver packs them by these names
+#: from its prepared model ``d``, the run state ``st`` and the output rows ``o``)
+NODE_ARRAYS = ("X", "mass", "kind", "fixmask", "body", "r_center", "r_fd")
+ELEMENT_ARRAYS = ("conn", "B", "V0", "gamma", "khg", "chg", "lam", "mu", "cptr", "full", "Bg", "Wg")
+LOAD_ARRAYS = ("ld_nodes", "ld_ptr", "ld_force", "ld_t", "ld_val", "ld_npts", "ld_fprev", "ld_uprev")
+REFERENCE_ARRAYS = ("r_nodes", "r_ptr", "r_off", "r_M", "r_J", "r_mode", "r_speed", "r_ramp", "r_torque",
+                    "r_tramp", "r_k", "r_c", "r_fixtr", "r_kb", "r_cb", "r_pos", "r_vel", "r_acc", "r_th",
+                    "r_om", "r_al", "r_prev")
+CONTACT_ARRAYS = ("slaves", "s_pair", "segs", "g_pair", "g_k", "g_rad", "p_mu", "p_vreg", "p_depth", "head",
+                  "nxt", "cand", "ncand", "gap", "seg_open", "c_nodes", "c_usearch")
+STATE_ARRAYS = ("u", "v", "a", "f")
+OUTPUT_ARRAYS = ("out_t", "out_E", "out_th", "out_om", "out_tq", "out_pos", "probes", "out_pu", "out_pv")
+
+
+def _run_loop(nsteps, dt, out_every, t0, alpha, alpha_r, margin, cell_h,
+              state, nodes, elements, loads, refs, contact, outputs, acc):
     """Advance the model ``nsteps`` steps of ``dt`` from time ``t0``; state arrays are updated in place.
 
+    ``alpha``: mass damping [1/s]; ``alpha_r``: relative damping [1/s]; ``margin``, ``cell_h``: contact
+    search margin and cell size [m]. The array groups are tuples in the order of :data:`STATE_ARRAYS`,
+    :data:`NODE_ARRAYS`, :data:`ELEMENT_ARRAYS`, :data:`LOAD_ARRAYS`, :data:`REFERENCE_ARRAYS`,
+    :data:`CONTACT_ARRAYS` and :data:`OUTPUT_ARRAYS`.
     ``acc`` (8,) carries the accumulated dissipations/work and E(t=0) between calls:
     [hg visc, friction, damping, external work, E0, last sampled output index, W_int, W_hg].
     Returns the number of output rows written.
     """
+    u, v, a, f = state
+    X, mass, kind, fixmask, body, r_center, r_fd = nodes
+    conn, B, V0, gamma, khg, chg, lam, mu, cptr, full, Bg, Wg = elements
+    ld_nodes, ld_ptr, ld_force, ld_t, ld_val, ld_npts, ld_fprev, ld_uprev = loads
+    (r_nodes, r_ptr, r_off, r_M, r_J, r_mode, r_speed, r_ramp, r_torque, r_tramp, r_k, r_c, r_fixtr, r_kb, r_cb,
+     r_pos, r_vel, r_acc, r_th, r_om, r_al, r_prev) = refs
+    (slaves, s_pair, segs, g_pair, g_k, g_rad, p_mu, p_vreg, p_depth, head, nxt, cand, ncand, gap, seg_open,
+     c_nodes, c_usearch) = contact
+    out_t, out_E, out_th, out_om, out_tq, out_pos, probes, out_pu, out_pv = outputs
     n, dim = u.shape
     nr = r_M.shape[0]
     ncol = cptr.shape[0] - 1
