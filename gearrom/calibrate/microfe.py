@@ -205,8 +205,7 @@ def with_micro(base: MeshExcitation, model, pair, torque: float, nominal: MicroM
     de, rk = micro_delta(model, pair, torque, nominal, mods, th)
     k = base.stiffness(th, torque) * rk
     e = base.ste(th, torque) + de
-    j0, j1, w = base._torque_weights(torque)
-    ls = (1 - w) * base.load_share[j0] + w * base.load_share[j1]
+    ls = base.load_share_at(torque)
     meta = dict(base.metadata)
     meta["micro_change"] = {"model": getattr(model, "name", type(model).__name__), "nominal": repr(nominal),
                             "modified": repr(mods)}

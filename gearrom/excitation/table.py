@@ -217,6 +217,11 @@ class MeshExcitation:
         ph = np.multiply.outer(np.asarray(theta, dtype=float) * self.z1, m)
         return (np.exp(1j * ph) @ (scale * coeffs)).real
 
+    def load_share_at(self, torque: float) -> np.ndarray:
+        """Load share (n_theta, n_pairs) at ``torque`` [N m], linear between the table's torques."""
+        j0, j1, w = self._torque_weights(torque)
+        return (1 - w) * self.load_share[j0] + w * self.load_share[j1]
+
     def share_of(self, pair: int) -> np.ndarray:
         """Load share of tooth pair ``pair`` (n_torque, n_theta); zeros for a pair without a column."""
         k = np.flatnonzero(self.pairs == pair)
