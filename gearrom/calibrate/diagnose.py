@@ -17,17 +17,17 @@ from pathlib import Path
 
 import numpy as np
 
-from gearrom.calibrate import characterize as chz
+import gearrom.calibrate.characterize as chz
 from gearrom.calibrate.effects import LIBRARY
 from gearrom.calibrate.fit import Context, FitSettings, Trial, make_candidates
 from gearrom.calibrate.microfe import FEMicroModel
-from gearrom.excitation.slices import MicroMods
 from gearrom.calibrate.model import build_run_model
 from gearrom.calibrate.report import DiagnosisResult, RunTraces
 from gearrom.calibrate.residual import fit_lines, load_run, rms
 from gearrom.calibrate.select import select_effects, verify
 from gearrom.calibrate.simulator import default_simulator
 from gearrom.errors import CalibrationError
+from gearrom.excitation.slices import MicroMods
 from gearrom.signal import GearMeshInfo, ReadSettings, TESettings
 
 log = logging.getLogger(__name__)

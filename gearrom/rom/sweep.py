@@ -254,7 +254,8 @@ def _point_summary(run, orders: int = 3) -> dict:
 
 def _warm(config_ref: str, torque: float, key: str) -> None:
     """Build the model and the parts of a run that do not depend on the speed, in this process."""
-    from gearrom.rom import frf, simulate  # noqa: F401 (imported for the workers)
+    import gearrom.rom.frf  # noqa: F401 (imported here for the forked workers)
+    import gearrom.rom.simulate as simulate
     from gearrom.rom.reduce import reduce
 
     model = _model(config_ref, torque, key)
@@ -273,7 +274,7 @@ def _run_one(task: tuple) -> tuple[float, dict, dict[str, np.ndarray]]:
     """Simulate one speed, store it atomically; returns ``(rpm, summary, channels)``."""
     config_ref, rpm, torque, n_revs, spm, path, key_hash, key_json, linear = task
 
-    from gearrom.rom import simulate
+    import gearrom.rom.simulate as simulate
     from gearrom.rom.frf import gmf_estimate
 
     with warnings.catch_warnings():

@@ -33,8 +33,8 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+import gearrom.signal.qkernel as qk
 from gearrom.errors import MeasurementError
-from gearrom.signal import qkernel as qk
 from gearrom.signal.readers import EdgeChunk, first_bad, fmt_t
 from gearrom.signal.settings import ReadSettings
 

@@ -30,8 +30,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+import gearrom.signal.qkernel as qk
 from gearrom.errors import MeasurementError
-from gearrom.signal import qkernel as qk
 
 
 @dataclass

@@ -15,8 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+import gearrom.signal.qkernel as qk
 from gearrom.errors import MeasurementError
-from gearrom.signal import qkernel as qk
 from gearrom.signal.measurement import CHANNELS, MeasurementMeta
 from gearrom.signal.readers import EdgeChunk, first_bad, iter_chunks
 from gearrom.signal.settings import ReadSettings
