@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import dataclasses
 import logging
-import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -26,7 +25,7 @@ import numpy as np
 from gearrom.fe.ccx import closure_rotation, deck_steps, readout_line, write_deck
 from gearrom.fe.compliance import patch_operator
 from gearrom.fe.elastic import ElasticBody2D, FacetIndex
-from gearrom.fe.fullcontact import placement
+from gearrom.fe.fullcontact import frames_at
 from gearrom.fe.mesh2d import MeshSettings, gear_mesh
 
 if TYPE_CHECKING:
@@ -37,16 +36,6 @@ log = logging.getLogger(__name__)
 #: mesh of the spur deck: coarser than the LTCA's (a 3D slab of quadratic wedges is ~100 times the
 #: 2D problem), fine enough on the flanks of the teeth -1..1 for a static TE cross-check
 DECK_MESH_2D = MeshSettings(flank_size=0.06e-3, tooth_size=0.6e-3, body_size=4e-3, refined_teeth=1)
-
-
-def _rot(phi: float) -> np.ndarray:
-    return np.array([[math.cos(phi), -math.sin(phi)], [math.sin(phi), math.cos(phi)]])
-
-
-def frames_at(pair, theta: float):
-    """Rotation and origin of each gear's frame at input angle ``theta`` [rad] (0: start of the active mesh)."""
-    phi1, phi2 = placement(pair, pair.roll_start_active[0] + pair.rb[0] * theta)
-    return [(_rot(phi1), np.zeros(2)), (_rot(math.pi + phi2), np.array([0.0, pair.aw]))]
 
 
 def export_vtu(ltca, theta: float, torque: float, path: str | Path, settings: MeshSettings | None = None) -> Path:

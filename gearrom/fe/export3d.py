@@ -236,7 +236,7 @@ def export_inp_3d(pair, theta: float, torque: float, path: str | Path, settings:
                          f"-{s.teeth}..{s.teeth}: use Mesh3DSettings(teeth=...) >= {max(map(abs, pairs), default=0)}")
     # the spur deck's and LoadedPair3D's placement (lifted to 3D) and the deck lines both decks share
     from gearrom.fe.ccx import closure_rotation, deck_steps, readout_line, write_deck
-    from gearrom.fe.export import frames_at
+    from gearrom.fe.fullcontact import frames_at
 
     frames = [(np.block([[R2, np.zeros((2, 1))], [np.zeros((1, 2)), np.ones((1, 1))]]), np.append(O2, 0.0))
               for R2, O2 in frames_at(pair, theta)]

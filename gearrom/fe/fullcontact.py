@@ -73,6 +73,16 @@ def _rot(phi: float) -> np.ndarray:
     return np.array([[math.cos(phi), -math.sin(phi)], [math.sin(phi), math.cos(phi)]])
 
 
+def frames_at(pair, theta: float):
+    """Rotation and origin of each gear's frame at input angle ``theta`` [rad] (0: start of the active mesh)."""
+    phi1, phi2 = placement(pair, pair.roll_start_active[0] + pair.rb[0] * theta)
+    return [(_rot(phi1), np.zeros(2)), (_rot(math.pi + phi2), np.array([0.0, pair.aw]))]
+
+
+def _rot(phi: float) -> np.ndarray:
+    return np.array([[math.cos(phi), -math.sin(phi)], [math.sin(phi), math.cos(phi)]])
+
+
 def _boundary_points(body: ElasticBody2D, edges: np.ndarray):
     """Dof points (vertices + edge midpoints) of a curve: coordinates and (x-dof, y-dof) pairs."""
     pts = body.mesh.points

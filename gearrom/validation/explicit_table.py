@@ -210,7 +210,7 @@ def explicit_qs_excitation(pair, reference, fe_dir: str | Path | None = None, rp
 
 
 def _slow(pair, reference, fe_dir, rpm: float, slow):
-    from gearrom.validation.report import DEFAULT_FE_DIR, load_fe_record
+    from gearrom.validation.records import DEFAULT_FE_DIR, load_fe_record
 
     if slow is not None:
         return slow
@@ -249,7 +249,7 @@ def explicit_scaled_excitation(pair, reference, fe_dir: str | Path | None = None
         provenance (``table``, ``stiffness_scale``, means, the slow run's metadata, ``limit``).
     """
     from gearrom.validation.pair_rom import scaled_excitation
-    from gearrom.validation.report import replace_meta
+    from gearrom.validation.records import replace_meta
 
     slow = _slow(pair, reference, fe_dir, rpm, slow)
     torque = float(slow.meta["torque_out_Nm"])

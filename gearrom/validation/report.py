@@ -22,76 +22,18 @@ from pathlib import Path
 
 import numpy as np
 
-from gearrom.errors import ConfigError, MeasurementError
+from gearrom.errors import ConfigError
 from gearrom.validation.compare import TOLERANCES, compare_metrics, steady_window, te_metrics
 from gearrom.validation.gates import record_gates
 from gearrom.validation.pair_rom import (PairRomSetup, mesh_excitation, polar_inertia, scaled_excitation,
                                          simulate_pair_rom, table_samples)
+from gearrom.validation.records import (DEFAULT_FE_DIR, FE_INTEGRATIONS, FERecord, load_fe_record, record_stem,
+                                        replace_meta)
 
 log = logging.getLogger(__name__)
 
-__all__ = ["FERecord", "ValidationReport", "fe_damping_ratio", "load_fe_record", "record_stem", "output_inertia",
-           "validate_speed", "validate"]
-
-DEFAULT_FE_DIR = Path(__file__).resolve().parents[2] / "validation"
-
-
-@dataclass(frozen=True, eq=False)
-class FERecord:
-    """One explicit FE run: time [s], input angle from the start [rad], TE [m] and its metadata."""
-
-    t: np.ndarray
-    theta_in: np.ndarray
-    te: np.ndarray
-    meta: dict
-    source: str = "stored"
-    energies: dict | None = None      # name -> J over the run (:data:`gearrom.fe.explicit.result.ENERGY_NAMES`)
-
-
-def replace_meta(excitation, **extra):
-    """The excitation with ``extra`` added to its metadata."""
-    from dataclasses import replace
-
-    return replace(excitation, metadata=dict(excitation.metadata, **extra))
-
-
-#: kinds of stored explicit FE records, best first: "loaded" (loaded static start, calibrated damping,
-#: fully integrated elements, outline nodes on the profile), "full" (gap start, fully integrated, no
-#: damping), "reduced" (gap start, one-point elements with hourglass control)
-FE_INTEGRATIONS = ("loaded", "full", "reduced")
-_SUFFIX = {"loaded": "_loaded", "full": "_full", "reduced": ""}
-
-
-def record_stem(fe_dir: str | Path, rpm: float, prefix: str = "spur", integration: str = "reduced") -> Path:
-    """``<fe_dir>/<prefix>_<rpm>rpm`` plus ``_loaded``, ``_full`` or nothing (:data:`FE_INTEGRATIONS`)."""
-    if integration not in FE_INTEGRATIONS:
-        raise ConfigError(f"FE record kind must be one of {FE_INTEGRATIONS}, got {integration!r}")
-    return Path(fe_dir) / (f"{prefix}_{int(round(rpm))}rpm" + _SUFFIX[integration])
-
-
-def load_fe_record(fe_dir: str | Path, rpm: float, prefix: str = "spur", integration: str = "reduced") -> FERecord:
-    """Load ``<fe_dir>/<prefix>_<rpm>rpm[_full].npz/.json`` (:func:`record_stem`); MeasurementError naming a
-    missing/broken file."""
-    stem = record_stem(fe_dir, rpm, prefix, integration)
-    npz, js = stem.with_suffix(".npz"), stem.with_suffix(".json")
-    flag = {"full": " --integration full", "loaded": " --start loaded --integration full", "reduced": ""}[integration]
-    for p in (npz, js):
-        if not p.is_file():
-            raise MeasurementError(f"stored explicit FE result {p} is missing (run validation/run_explicit_{prefix}.py "
-                                   f"{int(round(rpm))}{flag}{' or use --fresh' if prefix == 'spur' else ''})")
-    meta = json.loads(js.read_text())
-    with np.load(npz) as d:
-        for key in ("t_s", "te_m", "theta_rad"):
-            if key not in d:
-                raise MeasurementError(f"{npz}: array {key!r} missing")
-        t, te, th = d["t_s"], d["te_m"], d["theta_rad"]
-        energies = {k[len("energy_"):]: d[k] for k in d.files if k.startswith("energy_")} or None
-    for key in ("t_steady_from_s", "torque_out_Nm"):
-        if key not in meta:
-            raise MeasurementError(f"{js}: key {key!r} missing")
-    meta.setdefault("integration", "full" if integration == "loaded" else integration)
-    meta.setdefault("record", integration)
-    return FERecord(t=t, theta_in=th[:, 0] - th[0, 0], te=te, meta=meta, source="stored", energies=energies)
+__all__ = ["DEFAULT_FE_DIR", "FERecord", "ValidationReport", "fe_damping_ratio", "load_fe_record", "record_stem",
+           "output_inertia", "replace_meta", "validate_speed", "validate"]
 
 
 def output_inertia(pair, outline_size: float, body_size: float, grading: float | None = None,
