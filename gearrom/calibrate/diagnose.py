@@ -19,7 +19,8 @@ import numpy as np
 
 import gearrom.calibrate.characterize as chz
 from gearrom.calibrate.effects import LIBRARY
-from gearrom.calibrate.fit import Context, FitSettings, Trial, make_candidates
+from gearrom.calibrate.candidates import make_candidates
+from gearrom.calibrate.fit import Context, FitSettings, Trial
 from gearrom.calibrate.microfe import FEMicroModel
 from gearrom.calibrate.model import build_run_model
 from gearrom.calibrate.report import DiagnosisResult, RunTraces

@@ -264,30 +264,3 @@ class OncePerRev(Candidate):
             return None
         cols = self._cols(ctx)
         return [sum(x[j] * cols[j][r] for j in range(len(cols))) for r in range(len(ctx.models))]
-
-
-def make_candidates(ctx: Context) -> list[Candidate]:
-    """All candidates allowed by the settings and the simulator."""
-    from gearrom.calibrate.fit_mesh import Micro, RigMode
-    from gearrom.calibrate.fit_tooth import PitchError
-
-    names = ctx.s.candidates or tuple(LIBRARY)
-    out: list[Candidate] = []
-    for name in names:
-        spec = LIBRARY[name]
-        if spec.kind == "rig":
-            tun = ctx.sim.tunable() if hasattr(ctx.sim, "tunable") else {}
-            for p in ctx.s.rig_parameters:
-                if p in tun:
-                    c = RigMode(p)
-                    c.sim_ref = ctx.sim
-                    out.append(c)
-            continue
-        for t in spec.targets:
-            if name in ("eccentricity", "encoder_eccentricity"):
-                out.append(OncePerRev(name, t))
-            elif name == "pitch_error":
-                out.append(PitchError(name, t))
-            else:
-                out.append(Micro(name, t))
-    return out

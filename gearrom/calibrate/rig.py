@@ -31,7 +31,7 @@ import numba
 import numpy as np
 
 from gearrom.calibrate.microfe import FEMicroModel, with_micro
-from gearrom.calibrate.simulator import ModelChanges, RunConditions, SimHistory
+from gearrom.calibrate.runs import ModelChanges, RunConditions, SimHistory
 from gearrom.errors import CalibrationError
 from gearrom.excitation.slices import MicroMods, SliceMicroModel
 from gearrom.rom.lawkernel import LawTables, law_force

@@ -17,9 +17,10 @@ from typing import Any, Literal
 import numpy as np
 
 from gearrom.errors import MeasurementError
+from gearrom.signal.encoders import CHANNELS, EncoderInfo, encoder_ratio
+from gearrom.signal.qmeta import read_quadrature_meta
 
 FORMAT = "gearrom.measurement/1"
-CHANNELS = ("input", "output")
 Kind = Literal["edges", "angles", "quadrature"]
 KINDS = ("edges", "angles", "quadrature")
 
@@ -30,40 +31,6 @@ _ENCODER_KEYS = {"edges_per_rev", "location", "ratio"}
 #: Data file suffixes per kind (sampled A/B signals also come from HDF5 and MATLAB files).
 SUFFIXES = {"edges": (".csv", ".tdms"), "angles": (".csv", ".tdms"),
             "quadrature": (".csv", ".tdms", ".h5", ".hdf5", ".mat")}
-
-
-@dataclass(frozen=True)
-class EncoderInfo:
-    """One encoder channel.
-
-    Parameters
-    ----------
-    edges_per_rev : int
-        Counted edges per encoder revolution (pulses/rev times the decoding factor, e.g. 4; for
-        kind ``quadrature`` lines times the decoding factor).
-    location : str
-        Where the encoder sits, e.g. ``"sensor"`` or ``"clutch"`` (informative only).
-    ratio : float
-        Encoder revolutions per shaft revolution (a sensor gear or belt; 1 on the shaft). The
-        shaft angle of edge n is ``n * 2*pi / (edges_per_rev * ratio)``.
-    lines : int or None
-        Lines (pulses) per revolution of a sampled quadrature encoder.
-    a, b, z : str or None
-        Names of the A, B and (optional) index channels in a sampled data file.
-    """
-
-    edges_per_rev: int
-    location: str = "sensor"
-    ratio: float = 1.0
-    lines: int | None = None
-    a: str | None = None
-    b: str | None = None
-    z: str | None = None
-
-    @property
-    def counts_per_shaft_rev(self) -> float:
-        """Counted edges per shaft revolution, ``edges_per_rev * ratio``."""
-        return self.edges_per_rev * self.ratio
 
 
 @dataclass(frozen=True)
@@ -195,8 +162,6 @@ def read_meta(path: str | Path) -> MeasurementMeta:
         raise MeasurementError(f"{where}: key 'extra' must be an object, got {extra!r}")
     sample_rate = _num(doc, "sample_rate_hz", where, required=False)
     if kind == "quadrature":
-        from gearrom.signal.qmeta import read_quadrature_meta
-
         quad, encoders = read_quadrature_meta(doc, where)
     else:
         for key in ("quadrature", "sample_rate_hz"):
@@ -262,15 +227,6 @@ def _read_encoders(enc: Any, where: str, *, required: bool) -> dict[str, Encoder
             raise MeasurementError(f"{w}: 'location' must be a string, got {loc!r}")
         out[ch] = EncoderInfo(edges_per_rev=n, location=loc, ratio=encoder_ratio(e, w))
     return out
-
-
-def encoder_ratio(e: dict, where: str) -> float:
-    """The optional ``ratio`` key of an encoder (encoder revolutions per shaft revolution, default 1)."""
-    val = e.get("ratio", 1.0)
-    if isinstance(val, bool) or not isinstance(val, (int, float)) or not (math.isfinite(val) and 0 < val <= 1e3):
-        raise MeasurementError(f"{where}: 'ratio' must be a number in (0, 1000] (encoder revolutions per shaft "
-                               f"revolution), got {val!r}")
-    return float(val)
 
 
 @dataclass(frozen=True)

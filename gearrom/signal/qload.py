@@ -23,6 +23,7 @@ from gearrom.signal.quadrature import QuadratureDecoder
 from gearrom.signal.readers import EdgeChunk
 from gearrom.signal.samples import iter_samples
 from gearrom.signal.settings import ReadSettings
+from gearrom.signal.streams import auto_fs, combine_streams
 from gearrom.signal.trim import report_run, select_run
 
 log = logging.getLogger(__name__)
@@ -94,8 +95,6 @@ def load_quadrature(meta: MeasurementMeta, settings: ReadSettings):
     MeasurementError
         Unreadable data, a channel that does not switch, too few edges, no common forward span.
     """
-    from gearrom.signal.angles import auto_fs, combine_streams
-
     file = str(meta.data_path)
     dec = decode(meta, settings)
     fs = auto_fs(meta, settings)

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from typing import Any, Literal
 
 from gearrom.errors import MeasurementError
-from gearrom.signal.measurement import CHANNELS, EncoderInfo, encoder_ratio
+from gearrom.signal.encoders import CHANNELS, EncoderInfo, encoder_ratio
 
 _QUAD_KEYS = {"threshold", "hysteresis", "decoding", "time", "variable", "columns", "edge_time"}
 _ENC_KEYS = {"lines", "a", "b", "z", "location", "ratio"}

@@ -14,7 +14,7 @@ import numpy as np
 from gearrom.errors import MeasurementError
 from gearrom.signal.filters import FilterSettings
 from gearrom.signal.spectra import Peak, Spectrum, amplitude_spectrum, annotate_gmf, order_spectrum, synchronous_average
-from gearrom.signal.te import GearMeshInfo, TESettings
+from gearrom.signal.settings import GearMeshInfo, TESettings
 
 UM = 1e-6
 

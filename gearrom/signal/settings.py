@@ -1,11 +1,16 @@
-"""Settings of the measurement reader and the edge checks (:class:`ReadSettings`)."""
+"""Settings of the measurement reader and the edge checks (:class:`ReadSettings`), the gear data the TE
+needs (:class:`GearMeshInfo`) and the settings of the TE processing (:class:`TESettings`)."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Literal
 
+import numpy as np
+
 from gearrom.errors import ConfigError
+from gearrom.signal.filters import FilterSettings
 
 
 @dataclass(frozen=True)
@@ -118,3 +123,110 @@ class ReadSettings:
             raise ConfigError(f"Parameter chunk_rows={self.chunk_rows} must be >= 16")
         if self.edge_interp not in ("linear", "cubic"):
             raise ConfigError(f"Parameter edge_interp={self.edge_interp!r} must be 'linear' or 'cubic'")
+
+
+DEFAULT_CONFIG = "thesis-helical"
+
+
+@dataclass(frozen=True)
+class GearMeshInfo:
+    """What the TE needs to know about the gear pair (the measurement file does not carry it).
+
+    Parameters
+    ----------
+    z1, z2 : int
+        Teeth of the input (driving) and output gear.
+    rb1_m, rb2_m : float
+        Base radii, m.
+    r1_m, r2_m : float
+        Pitch (reference) radii, m.
+    name : str
+        Where the data came from (config name), informative.
+    """
+
+    z1: int
+    z2: int
+    rb1_m: float
+    rb2_m: float
+    r1_m: float
+    r2_m: float
+    name: str = ""
+
+    def __post_init__(self):
+        for k in ("z1", "z2"):
+            v = getattr(self, k)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
+                raise ConfigError(f"GearMeshInfo: {k}={v!r} must be an integer >= 1")
+        for k in ("rb1_m", "rb2_m", "r1_m", "r2_m"):
+            v = getattr(self, k)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and 0 < v < 10):
+                raise ConfigError(f"GearMeshInfo: {k}={v!r} must be a radius in m (0 < r < 10)")
+
+    @classmethod
+    def from_config(cls, name_or_path: str | Path = DEFAULT_CONFIG) -> GearMeshInfo:
+        """Take teeth, base and pitch radii from a gear configuration (:func:`gearrom.config.load_config`)."""
+        from gearrom.config import load_config
+
+        pair = load_config(name_or_path, check=False).pair
+        (z1, z2), (db1, db2), (d1, d2) = pair.z, pair.db, pair.d
+        return cls(int(z1), int(z2), db1 / 2, db2 / 2, d1 / 2, d2 / 2, name=str(name_or_path))
+
+    @property
+    def ratio(self) -> float:
+        """Nominal speed ratio n_out/n_in = z1/z2."""
+        return self.z1 / self.z2
+
+    @property
+    def hunting_revs_in(self) -> int:
+        """Input revolutions of one hunting-tooth period, z2/gcd(z1, z2)."""
+        return self.z2 // math.gcd(self.z1, self.z2)
+
+    def radii(self, te_on: Literal["line", "pitch"]) -> tuple[float, float]:
+        """``(r_in, r_out)`` the TE is taken on: base radii for ``"line"``, pitch radii for ``"pitch"``."""
+        if te_on == "line":
+            return self.rb1_m, self.rb2_m
+        if te_on == "pitch":
+            return self.r1_m, self.r2_m
+        raise ConfigError(f"te_on={te_on!r} must be 'line' or 'pitch'")
+
+
+@dataclass(frozen=True)
+class TESettings:
+    """Settings of the TE processing.
+
+    Parameters
+    ----------
+    te_on : {"line", "pitch"}
+        Line of action (base radii) or pitch circle (seed eq. 38-40).
+    filters : FilterSettings
+        Detrend / high-pass / Bessel low-pass.
+    samples_per_rev : int or None
+        Angle-grid points per input revolution for order spectra and averages (None: a power of two
+        at least as dense as the time grid, minimum 256).
+    window : str
+        Window of the time-domain amplitude spectrum.
+    ratio_tolerance : float
+        Allowed relative difference of the measured speed ratio from z1/z2.
+    n_harmonics, n_sidebands : int
+        GMF harmonics and shaft-order sidebands annotated.
+    estimate_scale : {"none", "input", "output"}
+        Estimate the counts per shaft revolution of this encoder from the measured speed ratio
+        (instead of the ratio check) and correct its angle.
+    """
+
+    te_on: Literal["line", "pitch"] = "line"
+    filters: FilterSettings = field(default_factory=FilterSettings)
+    samples_per_rev: int | None = None
+    window: str = "hann"
+    ratio_tolerance: float = 0.005
+    n_harmonics: int = 3
+    n_sidebands: int = 2
+    estimate_scale: Literal["none", "input", "output"] = "none"
+
+    def __post_init__(self):
+        if self.estimate_scale not in ("none", "input", "output"):
+            raise ConfigError(f"estimate_scale={self.estimate_scale!r} must be 'none', 'input' or 'output'")
+        if self.te_on not in ("line", "pitch"):
+            raise ConfigError(f"te_on={self.te_on!r} must be 'line' or 'pitch'")
+        if self.samples_per_rev is not None and self.samples_per_rev < 8:
+            raise ConfigError(f"samples_per_rev={self.samples_per_rev!r} must be >= 8 or None")

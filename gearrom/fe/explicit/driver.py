@@ -120,73 +120,8 @@ def prepare(model: ExplicitModel, safety: float = 0.9, max_candidates: int = 8) 
     d.update(kind=kind, r_nodes=np.concatenate(r_nodes) if nr else np.zeros(0, np.int64),
              r_ptr=np.array(r_ptr, np.int64), r_off=np.concatenate(r_off) if nr else np.zeros((0, 2)),
              r_mode=r_mode, r_fixtr=r_fixtr, r_center=r_center, **{"r_" + k: v for k, v in R.items()})
-    # loads
-    nl = len(model.loads)
-    npts = max([len(ld.times) for ld in model.loads], default=1)
-    ld_t = np.zeros((nl, npts))
-    ld_val = np.zeros((nl, npts))
-    ld_npts = np.zeros(nl, np.int64)
-    ld_nodes, ld_ptr = [], [0]
-    for l, ld in enumerate(model.loads):
-        ld_t[l, :len(ld.times)] = ld.times
-        ld_val[l, :len(ld.times)] = ld.factors
-        ld_npts[l] = len(ld.times)
-        ids = model.node_sets[ld.nodes]
-        ld_nodes.append(ids)
-        ld_ptr.append(ld_ptr[-1] + ids.size)
-    d.update(ld_nodes=np.concatenate(ld_nodes) if nl else np.zeros(0, np.int64),
-             ld_ptr=np.array(ld_ptr, np.int64),
-             ld_force=np.array([ld.force for ld in model.loads], float).reshape(nl, dim),
-             ld_t=ld_t, ld_val=ld_val, ld_npts=ld_npts)
-    # contact
-    nsn = 2 if dim == 2 else 4
-    slaves, s_pair, segs, g_pair, g_k, g_rad = [], [], [], [], [], []
-    p_mu, p_vreg, p_depth = [], [], []
-    for p, cp in enumerate(model.contacts):
-        sl = np.unique(model.node_sets[cp.slave])
-        sg = model.surfaces[cp.master]
-        if sg.shape[0] == 0 or sl.size == 0:
-            raise ConfigError(f"ContactPair {cp.slave!r}/{cp.master!r}: empty slave set or master surface")
-        own = _element_of_segments(conn0, sg)
-        xs = X[sg]
-        if dim == 2:
-            area = np.linalg.norm(xs[:, 1] - xs[:, 0], axis=1) * model.thickness
-        else:
-            area = 0.5 * np.linalg.norm(np.cross(xs[:, 2] - xs[:, 0], xs[:, 3] - xs[:, 1]), axis=1)
-        # one penalty per pair (the median of the per-segment estimate scale (lambda + 2 mu) A^2 / V): the
-        # potential k g^2 / 2 of a node then stays continuous when it passes from one master segment to
-        # the next; per-segment values would create or destroy (k2 - k1) g^2 / 2 at every such passage
-        k = np.full(len(sg), cp.penalty_scale * np.median((lam + 2 * mu) * area ** 2 / V0[own]))
-        cen = xs.mean(axis=1)
-        rad = np.linalg.norm(xs - cen[:, None, :], axis=2).max(axis=1)
-        hel = (V0[own] / (model.thickness if dim == 2 else 1.0)) ** (1.0 / dim)
-        depth = cp.capture_depth if cp.capture_depth is not None else 0.5 * hel.min()
-        slaves.append(sl); s_pair.append(np.full(sl.size, p))
-        segs.append(sg); g_pair.append(np.full(len(sg), p)); g_k.append(k); g_rad.append(rad)
-        p_mu.append(cp.mu); p_vreg.append(cp.v_reg); p_depth.append(depth)
-        # the penalty springs add at most 2 k to a slave node and 4 k to a master node (two slaves)
-        node_w2[sl] += 2 * k.max() / mass[sl]
-        mn = np.unique(sg)
-        node_w2[mn] += 4 * k.max() / mass[mn]
-    nc = len(model.contacts)
-    d.update(slaves=np.concatenate(slaves) if nc else np.zeros(0, np.int64),
-             s_pair=np.concatenate(s_pair).astype(np.int64) if nc else np.zeros(0, np.int64),
-             segs=np.concatenate(segs) if nc else np.zeros((0, nsn), np.int64),
-             g_pair=np.concatenate(g_pair).astype(np.int64) if nc else np.zeros(0, np.int64),
-             g_k=np.concatenate(g_k) if nc else np.zeros(0), g_rad=np.concatenate(g_rad) if nc else np.zeros(0),
-             p_mu=np.array(p_mu, float), p_vreg=np.array(p_vreg, float),
-             p_depth=np.array(p_depth if nc else [0.0], float))
-    margin = max(p_depth) if nc else 0.0
-    d["margin"] = margin
-    d["cell_h"] = (d["g_rad"].max() + 2 * margin) if nc else 1.0
-    ns = d["slaves"].size
-    d["head"] = np.zeros(4 * (ns + len(d["segs"])) + 1024, np.int64)
-    d["nxt"] = np.zeros(max(len(d["segs"]), 1), np.int64)
-    d["cand"] = np.zeros((ns, max_candidates), np.int64)
-    d["ncand"] = np.zeros(ns, np.int64)
-    d["gap"] = np.zeros(ns)
-    d["seg_open"] = _open_edges(d["segs"], d["g_pair"])
-    d["c_nodes"] = np.unique(np.concatenate([d["slaves"], d["segs"].ravel()])) if nc else np.zeros(0, np.int64)
+    d.update(_load_arrays(model, dim))
+    d.update(_contact_arrays(model, conn0, V0, lam, mu, mass, node_w2, max_candidates))
     # selective mass scaling of the nodes below the target step (free nodes only)
     d["added_mass"] = 0.0
     if model.mass_scaling_dt > 0:
@@ -235,6 +170,84 @@ def _bodies(model: ExplicitModel, kind: np.ndarray) -> np.ndarray:
     if loose:
         log.warning("relative_damping: %d nodes belong to no body with a reference and stay undamped", loose)
     return body
+
+
+def _load_arrays(model: ExplicitModel, dim: int) -> dict:
+    """Nodal loads as flat arrays: node ids per load (``ld_ptr``), force vectors and time tables."""
+    nl = len(model.loads)
+    npts = max([len(ld.times) for ld in model.loads], default=1)
+    ld_t = np.zeros((nl, npts))
+    ld_val = np.zeros((nl, npts))
+    ld_npts = np.zeros(nl, np.int64)
+    ld_nodes, ld_ptr = [], [0]
+    for l, ld in enumerate(model.loads):
+        ld_t[l, :len(ld.times)] = ld.times
+        ld_val[l, :len(ld.times)] = ld.factors
+        ld_npts[l] = len(ld.times)
+        ids = model.node_sets[ld.nodes]
+        ld_nodes.append(ids)
+        ld_ptr.append(ld_ptr[-1] + ids.size)
+    return dict(ld_nodes=np.concatenate(ld_nodes) if nl else np.zeros(0, np.int64),
+             ld_ptr=np.array(ld_ptr, np.int64),
+             ld_force=np.array([ld.force for ld in model.loads], float).reshape(nl, dim),
+             ld_t=ld_t, ld_val=ld_val, ld_npts=ld_npts)
+
+
+def _contact_arrays(model: ExplicitModel, conn0, V0, lam: float, mu: float, mass: np.ndarray, node_w2: np.ndarray,
+                    max_candidates: int) -> dict:
+    """Contact pairs as flat arrays (slaves, master segments, penalties, search buffers). Adds the penalty
+    springs' share to the nodal frequency bound ``node_w2`` [1/s^2] in place."""
+    X = model.nodes
+    dim = X.shape[1]
+    nsn = 2 if dim == 2 else 4
+    slaves, s_pair, segs, g_pair, g_k, g_rad = [], [], [], [], [], []
+    p_mu, p_vreg, p_depth = [], [], []
+    for p, cp in enumerate(model.contacts):
+        sl = np.unique(model.node_sets[cp.slave])
+        sg = model.surfaces[cp.master]
+        if sg.shape[0] == 0 or sl.size == 0:
+            raise ConfigError(f"ContactPair {cp.slave!r}/{cp.master!r}: empty slave set or master surface")
+        own = _element_of_segments(conn0, sg)
+        xs = X[sg]
+        if dim == 2:
+            area = np.linalg.norm(xs[:, 1] - xs[:, 0], axis=1) * model.thickness
+        else:
+            area = 0.5 * np.linalg.norm(np.cross(xs[:, 2] - xs[:, 0], xs[:, 3] - xs[:, 1]), axis=1)
+        # one penalty per pair (the median of the per-segment estimate scale (lambda + 2 mu) A^2 / V): the
+        # potential k g^2 / 2 of a node then stays continuous when it passes from one master segment to
+        # the next; per-segment values would create or destroy (k2 - k1) g^2 / 2 at every such passage
+        k = np.full(len(sg), cp.penalty_scale * np.median((lam + 2 * mu) * area ** 2 / V0[own]))
+        cen = xs.mean(axis=1)
+        rad = np.linalg.norm(xs - cen[:, None, :], axis=2).max(axis=1)
+        hel = (V0[own] / (model.thickness if dim == 2 else 1.0)) ** (1.0 / dim)
+        depth = cp.capture_depth if cp.capture_depth is not None else 0.5 * hel.min()
+        slaves.append(sl); s_pair.append(np.full(sl.size, p))
+        segs.append(sg); g_pair.append(np.full(len(sg), p)); g_k.append(k); g_rad.append(rad)
+        p_mu.append(cp.mu); p_vreg.append(cp.v_reg); p_depth.append(depth)
+        # the penalty springs add at most 2 k to a slave node and 4 k to a master node (two slaves)
+        node_w2[sl] += 2 * k.max() / mass[sl]
+        mn = np.unique(sg)
+        node_w2[mn] += 4 * k.max() / mass[mn]
+    nc = len(model.contacts)
+    d = dict(slaves=np.concatenate(slaves) if nc else np.zeros(0, np.int64),
+             s_pair=np.concatenate(s_pair).astype(np.int64) if nc else np.zeros(0, np.int64),
+             segs=np.concatenate(segs) if nc else np.zeros((0, nsn), np.int64),
+             g_pair=np.concatenate(g_pair).astype(np.int64) if nc else np.zeros(0, np.int64),
+             g_k=np.concatenate(g_k) if nc else np.zeros(0), g_rad=np.concatenate(g_rad) if nc else np.zeros(0),
+             p_mu=np.array(p_mu, float), p_vreg=np.array(p_vreg, float),
+             p_depth=np.array(p_depth if nc else [0.0], float))
+    margin = max(p_depth) if nc else 0.0
+    d["margin"] = margin
+    d["cell_h"] = (d["g_rad"].max() + 2 * margin) if nc else 1.0
+    ns = d["slaves"].size
+    d["head"] = np.zeros(4 * (ns + len(d["segs"])) + 1024, np.int64)
+    d["nxt"] = np.zeros(max(len(d["segs"]), 1), np.int64)
+    d["cand"] = np.zeros((ns, max_candidates), np.int64)
+    d["ncand"] = np.zeros(ns, np.int64)
+    d["gap"] = np.zeros(ns)
+    d["seg_open"] = _open_edges(d["segs"], d["g_pair"])
+    d["c_nodes"] = np.unique(np.concatenate([d["slaves"], d["segs"].ravel()])) if nc else np.zeros(0, np.int64)
+    return d
 
 
 def stable_dt(model: ExplicitModel, safety: float = 0.9) -> float:
@@ -348,6 +361,24 @@ def _load_checkpoint(path: Path, state: dict, out: dict, key: str) -> tuple[int,
             return row, int(z["chunk"]), float(z["t0"]), float(z["wall"])
     except (OSError, KeyError, ValueError) as exc:
         raise ConfigError(f"checkpoint {path} cannot be read ({exc}); delete it to start over") from None
+
+
+def _run_meta(model: ExplicitModel, d: dict, step_dt: float, nsteps_total: int, sample_period: float, wall: float,
+              parallel: bool) -> dict:
+    """The run's metadata: sizes, step, timing, throughput, material, damping, contact counts."""
+    n, dim = model.nodes.shape
+    return dict(dim=dim, n_nodes=n, n_elements=int(model.elements.shape[0]), dt_s=step_dt,
+                dt_stable_s=d["dt_stable"], n_steps=nsteps_total, t_end_s=nsteps_total * step_dt,
+                sample_period_s=sample_period, wall_time_s=wall,
+                element_updates_per_s=nsteps_total * model.elements.shape[0] / wall,
+                relative_damping=model.relative_damping,
+                n_colors=int(d["cptr"].size - 1), parallel=parallel, integration=model.integration,
+                hourglass_stiffness=model.hourglass_stiffness,
+                hourglass_viscosity=model.hourglass_viscosity, mass_damping=model.mass_damping,
+                material=dict(E_Pa=model.material.E, nu=model.material.nu, rho_kg_m3=model.material.rho),
+                thickness_m=model.thickness, references=[r.nodes for r in model.references],
+                added_mass_kg=d["added_mass"], total_mass_kg=float(d["mass"].sum()),
+                n_contact_slaves=int(d["slaves"].size), n_contact_segments=int(len(d["segs"])))
 
 
 def solve(model: ExplicitModel, t_end: float, sample_period: float | None = None, *,
@@ -493,18 +524,7 @@ def solve(model: ExplicitModel, t_end: float, sample_period: float | None = None
     nsteps_total = n_out_total * out_every
     u, v = st["u"], st["v"]
     out_t, out_E, out_th, out_om, out_tq, out_pos, out_pu, out_pv = (out[k] for k in _OUT)
-    meta = dict(dim=dim, n_nodes=n, n_elements=int(model.elements.shape[0]), dt_s=step_dt,
-                dt_stable_s=d["dt_stable"], n_steps=nsteps_total, t_end_s=nsteps_total * step_dt,
-                sample_period_s=sample_period, wall_time_s=wall,
-                element_updates_per_s=nsteps_total * model.elements.shape[0] / wall,
-                relative_damping=model.relative_damping,
-                n_colors=int(d["cptr"].size - 1), parallel=bool(parallel), integration=model.integration,
-                hourglass_stiffness=model.hourglass_stiffness,
-                hourglass_viscosity=model.hourglass_viscosity, mass_damping=model.mass_damping,
-                material=dict(E_Pa=model.material.E, nu=model.material.nu, rho_kg_m3=model.material.rho),
-                thickness_m=model.thickness, references=[r.nodes for r in model.references],
-                added_mass_kg=d["added_mass"], total_mass_kg=float(d["mass"].sum()),
-                n_contact_slaves=int(d["slaves"].size), n_contact_segments=int(len(d["segs"])))
+    meta = _run_meta(model, d, step_dt, nsteps_total, sample_period, wall, bool(parallel))
     return ExplicitResult(t=out_t[:row], energies=out_E[:row], theta=out_th[:row], omega=out_om[:row],
                           torque_body=out_tq[:row], ref_disp=out_pos[:row], probe_ids=probes,
                           probe_u=out_pu[:row], probe_v=out_pv[:row], u_final=u, v_final=v, meta=meta)

@@ -156,6 +156,87 @@ def _outer_loop_segments(elements2d: np.ndarray, bore: set) -> np.ndarray:
     return segs[keep]
 
 
+def _flank_contact_sets(pair, m2d, n1_2d, n2_2d, c2, off: int) -> tuple[dict, dict]:
+    """Master facets and slave nodes on the involute flanks of the transverse section: facets with a node
+    below the root form circle or above the radius that meets the mate's root form circle are left
+    out, and a slave node is kept only where its conjugate point lies on the mate's facets."""
+    n2d = n1_2d.shape[0] + n2_2d.shape[0]
+    rad = np.hypot(*np.vstack([n1_2d, n2_2d - c2]).T)
+    rf = np.where(np.arange(n2d) < off, 0.5 * pair.dff[0], 0.5 * pair.dff[1])
+    loa = pair.aw * math.sin(pair.alpha_wt)
+    roll_ff = [math.sqrt(max((0.5 * pair.dff[g]) ** 2 - pair.rb[g] ** 2, 0.0)) for g in (0, 1)]
+    r_top = [math.hypot(pair.rb[g], loa - roll_ff[1 - g]) for g in (0, 1)]
+    rt = np.where(np.arange(n2d) < off, r_top[0], r_top[1])
+    on_root = (rad < rf - _ROOT_BAND) | (rad > rt + _ROOT_BAND)
+    surfs = {k: np.asarray(v)[~on_root[np.asarray(v)].any(axis=1)] for k, v in m2d.surfaces.items()}
+    # The master facets end at the last outline nodes inside [rf, rt], short of those radii by up to one
+    # facet. A slave node is kept only where its conjugate point on the transverse line of action lies on
+    # the mate's facets: otherwise it meets the mate beyond the facet set's edge, where the penalty contact
+    # has no surface (a first touch there was invisible to the contact: the pair closed ~10 um before
+    # the flanks took load on the coarse mesh).
+    cov = [rad[np.unique(surfs[k])] for k in ("outline_1", "outline_2")]
+
+    def conjugate(g: int, r_mate: float) -> float:
+        return math.hypot(pair.rb[g], loa - math.sqrt(max(r_mate ** 2 - pair.rb[1 - g] ** 2, 0.0)))
+
+    r_lo = [max(0.5 * pair.dff[g], conjugate(g, cov[1 - g].max())) for g in (0, 1)]
+    r_hi = [min(r_top[g], conjugate(g, cov[1 - g].min())) for g in (0, 1)]
+    is1 = np.arange(n2d) < off
+    off_slave = (rad < np.where(is1, r_lo[0], r_lo[1]) - _ROOT_BAND) | (rad > np.where(is1, r_hi[0], r_hi[1]) + _ROOT_BAND)
+    slaves = {k: np.asarray(m2d.node_sets[k])[~off_slave[np.asarray(m2d.node_sets[k])]] for k in ("flank_1", "flank_2")}
+    return surfs, slaves
+
+
+def _extrude(pair, X2, q2, off: int, c2, zs, stagger: bool, slaves: dict, node_sets: dict, surfs: dict):
+    """Extrude the transverse Q4 section into twisted Hex8 layers, gear by gear (node order: gear 1 layer by
+    layer, then gear 2), with the node sets and contact surfaces lifted to every layer.
+
+    Returns ``nodes``, ``hexes``, ``base`` (per gear: first and end 2D node, first 3D node, layer count),
+    the layer planes per gear, the node sets and the surfaces.
+    """
+    from gearrom.geometry.profile import twist
+
+    n1_2d, n2_2d = X2[:off], X2[off:]
+    n2d = X2.shape[0]
+    z_gear = [zs, zs]
+    if stagger:   # output planes half a layer off the input's (end layers half thick)
+        z_gear[1] = np.concatenate([[zs[0]], 0.5 * (zs[:-1] + zs[1:]), [zs[-1]]])
+    parts = [(n1_2d, np.zeros(2), 0, off, 0), (n2_2d, c2, off, n2d, 1)]
+    blocks, hexes, base = [], [], []
+    start = 0
+    for pts, cen, lo, hi, g in parts:
+        nl, zg = len(z_gear[g]), z_gear[g]
+        tw = np.asarray(twist(pair, g, zg), float)
+        for k in range(nl):
+            blocks.append(np.column_stack([_rot(pts, cen, tw[k]), np.full(len(pts), zg[k])]))
+        q = q2[(q2 >= lo).all(axis=1) & (q2 < hi).all(axis=1)] - lo
+        hexes += [np.hstack([q + start + k * (hi - lo), q + start + (k + 1) * (hi - lo)]) for k in range(nl - 1)]
+        base.append((lo, hi, start, nl))
+        start += nl * (hi - lo)
+    nodes = np.vstack(blocks)
+    hexes = np.vstack(hexes)
+
+    def gear_of(ids):
+        return 0 if np.all(np.asarray(ids) < off) else 1
+
+    def layers(ids):
+        ids = np.asarray(ids, np.int64)
+        lo, hi, st, nl = base[gear_of(ids)]
+        return np.concatenate([ids - lo + st + k * (hi - lo) for k in range(nl)])
+
+    def faces(segs):
+        segs = np.asarray(segs, np.int64)
+        lo, hi, st, nl = base[gear_of(segs)]
+        sg = segs - lo + st
+        m = hi - lo
+        return np.vstack([np.column_stack([sg[:, 0] + k * m, sg[:, 1] + k * m, sg[:, 1] + (k + 1) * m,
+                                           sg[:, 0] + (k + 1) * m]) for k in range(nl - 1)])
+
+    sets = {k: layers(slaves.get(k, v)) for k, v in node_sets.items()}
+    surfaces = {k: faces(v) for k, v in surfs.items()}
+    return nodes, hexes, base, z_gear, sets, surfaces
+
+
 def helical_pair_model(pair, meshes, setup: GearPairSetup, n_layers: int, material: Material | None = None,
                        run_angle: float | None = None, margin_teeth: int = 2,
                        stagger: bool = False) -> tuple[ExplicitModel, dict]:
@@ -220,29 +301,7 @@ def helical_pair_model(pair, meshes, setup: GearPairSetup, n_layers: int, materi
     # The top of each flank is cut at the radius that meets the mate's root form circle on the line of
     # action (beyond it the mate has no involute: the LTCA's active flank ends there too), so that the tip
     # corners that sweep through the mate's fillet are in no contact set either.
-    rad = np.hypot(*np.vstack([n1_2d, n2_2d - c2]).T)
-    rf = np.where(np.arange(n2d) < off, 0.5 * pair.dff[0], 0.5 * pair.dff[1])
-    loa = pair.aw * math.sin(pair.alpha_wt)
-    roll_ff = [math.sqrt(max((0.5 * pair.dff[g]) ** 2 - pair.rb[g] ** 2, 0.0)) for g in (0, 1)]
-    r_top = [math.hypot(pair.rb[g], loa - roll_ff[1 - g]) for g in (0, 1)]
-    rt = np.where(np.arange(n2d) < off, r_top[0], r_top[1])
-    on_root = (rad < rf - _ROOT_BAND) | (rad > rt + _ROOT_BAND)
-    surfs = {k: np.asarray(v)[~on_root[np.asarray(v)].any(axis=1)] for k, v in m2d.surfaces.items()}
-    # The master facets end at the last outline nodes inside [rf, rt], short of those radii by up to one
-    # facet. A slave node is kept only where its conjugate point on the transverse line of action lies on
-    # the mate's facets: otherwise it meets the mate beyond the facet set's edge, where the penalty contact
-    # has no surface (a first touch there was invisible to the contact: the pair closed ~10 um before
-    # the flanks took load on the coarse mesh).
-    cov = [rad[np.unique(surfs[k])] for k in ("outline_1", "outline_2")]
-
-    def conjugate(g: int, r_mate: float) -> float:
-        return math.hypot(pair.rb[g], loa - math.sqrt(max(r_mate ** 2 - pair.rb[1 - g] ** 2, 0.0)))
-
-    r_lo = [max(0.5 * pair.dff[g], conjugate(g, cov[1 - g].max())) for g in (0, 1)]
-    r_hi = [min(r_top[g], conjugate(g, cov[1 - g].min())) for g in (0, 1)]
-    is1 = np.arange(n2d) < off
-    off_slave = (rad < np.where(is1, r_lo[0], r_lo[1]) - _ROOT_BAND) | (rad > np.where(is1, r_hi[0], r_hi[1]) + _ROOT_BAND)
-    slaves = {k: np.asarray(m2d.node_sets[k])[~off_slave[np.asarray(m2d.node_sets[k])]] for k in ("flank_1", "flank_2")}
+    surfs, slaves = _flank_contact_sets(pair, m2d, n1_2d, n2_2d, c2, off)
     drive1 = slaves["flank_1"]
     drive2 = slaves["flank_2"] - off
     poly_loop1 = outline_order(_outer_loop_segments(q2[(q2 < off).all(axis=1)], set(m2d.node_sets["bore_1"].tolist())))
@@ -270,43 +329,8 @@ def helical_pair_model(pair, meshes, setup: GearPairSetup, n_layers: int, materi
         node_sets = dict(m2d.node_sets)
     n1_2d, n2_2d = X2[:off], X2[off:]
     n2d = X2.shape[0]
-    # -- extrusion, gear by gear (node order: gear 1 layer by layer, then gear 2 layer by layer)
-    z_gear = [zs, zs]
-    if stagger:   # output planes half a layer off the input's (end layers half thick)
-        z_gear[1] = np.concatenate([[zs[0]], 0.5 * (zs[:-1] + zs[1:]), [zs[-1]]])
-    parts = [(n1_2d, np.zeros(2), 0, off, 0), (n2_2d, c2, off, n2d, 1)]
-    blocks, hexes, base = [], [], []
-    start = 0
-    for pts, cen, lo, hi, g in parts:
-        nl, zg = len(z_gear[g]), z_gear[g]
-        tw = np.asarray(twist(pair, g, zg), float)
-        for k in range(nl):
-            blocks.append(np.column_stack([_rot(pts, cen, tw[k]), np.full(len(pts), zg[k])]))
-        q = q2[(q2 >= lo).all(axis=1) & (q2 < hi).all(axis=1)] - lo
-        hexes += [np.hstack([q + start + k * (hi - lo), q + start + (k + 1) * (hi - lo)]) for k in range(nl - 1)]
-        base.append((lo, hi, start, nl))
-        start += nl * (hi - lo)
-    nodes = np.vstack(blocks)
-    hexes = np.vstack(hexes)
-
-    def gear_of(ids):
-        return 0 if np.all(np.asarray(ids) < off) else 1
-
-    def layers(ids):
-        ids = np.asarray(ids, np.int64)
-        lo, hi, st, nl = base[gear_of(ids)]
-        return np.concatenate([ids - lo + st + k * (hi - lo) for k in range(nl)])
-
-    def faces(segs):
-        segs = np.asarray(segs, np.int64)
-        lo, hi, st, nl = base[gear_of(segs)]
-        sg = segs - lo + st
-        m = hi - lo
-        return np.vstack([np.column_stack([sg[:, 0] + k * m, sg[:, 1] + k * m, sg[:, 1] + (k + 1) * m,
-                                           sg[:, 0] + (k + 1) * m]) for k in range(nl - 1)])
-
-    sets = {k: layers(slaves.get(k, v)) for k, v in node_sets.items()}
-    surfaces = {k: faces(v) for k, v in surfs.items()}
+    nodes, hexes, base, z_gear, sets, surfaces = _extrude(pair, X2, q2, off, c2, zs, stagger, slaves, node_sets,
+                                                         surfs)
     # -- start gap as the 3D contact sees it: the rigid section touch above may come from outline points
     # outside the contact sets (the mate's tip passing the root: negative tip-root clearance), so the
     # output is turned until the contact's own smallest gap is the clearance on the line of action
