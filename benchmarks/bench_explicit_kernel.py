@@ -14,7 +14,8 @@ elements, both measured in one run on the same meshes, to the existing results f
 ``--helical``: also (or, with ``--helical-only``, only, added to the existing results file) the Hex8
 throughput on the helical gear pair mesh of validation/run_explicit_helical.py (sector model, 8
 twisted layers, with the node-to-facet contact of the flanks), the whole step including contact, and the
-same steps without contact (the contact's share of the step); target ``HELICAL_TARGET`` on 2 cores.
+same steps without contact (the contact's share of the step), each the best of three timed runs (the
+spread is in ``wall_s_repeats``); target ``HELICAL_TARGET`` on 2 cores.
 """
 from __future__ import annotations
 
@@ -56,18 +57,22 @@ def measure_full() -> dict:
     return out
 
 
-def measure(model, nsteps: int, d: dict | None = None) -> dict:
+def measure(model, nsteps: int, d: dict | None = None, repeats: int = 1) -> dict:
+    """Throughput of ``nsteps`` steps, parallel and serial loop; the best of ``repeats`` timed runs."""
     d = prepare(model) if d is None else d
     dt = d["dt"]
     ne = model.elements.shape[0]
     out = {"n_elements": ne, "n_nodes": model.nodes.shape[0], "dt_s": dt}
     for parallel in (True, False):
         solve(model, 10 * dt, sample_period=5 * dt, prepared=d, parallel=parallel)   # warm-up / compile
-        t0 = time.perf_counter()
-        res = solve(model, nsteps * dt, sample_period=nsteps * dt / 4, prepared=d, chunks=1, parallel=parallel)
-        wall = time.perf_counter() - t0
+        walls = []
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            res = solve(model, nsteps * dt, sample_period=nsteps * dt / 4, prepared=d, chunks=1, parallel=parallel)
+            walls.append(time.perf_counter() - t0)
+        wall = min(walls)
         key = "parallel" if parallel else "serial"
-        out[key] = {"n_steps": res.meta["n_steps"], "wall_s": wall,
+        out[key] = {"n_steps": res.meta["n_steps"], "wall_s": wall, "wall_s_repeats": walls,
                     "element_updates_per_s": res.meta["n_steps"] * ne / wall,
                     "ns_per_element_step": wall / (res.meta["n_steps"] * ne) * 1e9}
         out["n_colors"] = res.meta["n_colors"]
@@ -101,12 +106,12 @@ def measure_helical(nsteps: int = 400, integration: str = "reduced") -> dict:
     t_end = 0.3e-3 + 6 / (rpm / 60 * pair.z[0])
     model, _ = helical_pair_model(pair, meshes, setup, ref.LAYERS, run_angle=rpm * 2 * math.pi / 60 * t_end)
     d = prepare(model)
-    out = measure(model, nsteps, d)
+    out = measure(model, nsteps, d, repeats=3)
     # the same model and steps without contact (no slave nodes): the contact's share of the step
     empty = np.zeros(0, np.int64)
     bare = {**d, "slaves": empty, "s_pair": empty, "cand": np.zeros((0, d["cand"].shape[1]), np.int64),
             "ncand": empty.copy(), "gap": np.zeros(0), "c_nodes": empty.copy()}
-    out["without_contact"] = measure(model, nsteps, bare)
+    out["without_contact"] = measure(model, nsteps, bare, repeats=3)
     for key in ("parallel", "serial"):
         with_c = out[key]["ns_per_element_step"]
         out[key]["contact_share"] = 1.0 - out["without_contact"][key]["ns_per_element_step"] / with_c

@@ -116,6 +116,7 @@ def _run_loop(nsteps, dt, out_every, t0, alpha, alpha_r, margin, cell_h,
     c_lb = np.empty((ns, cand.shape[1]))
     c_ord = np.empty((ns, cand.shape[1]), np.int64)
     c_out = np.empty((ns, 9))
+    c_act = np.empty(ns, np.int64)
     allowance = open_edge_allowance(g_rad) if dim == 3 else 0.0
     for step in range(nsteps + 1):
         t = t0 + step * dt
@@ -218,10 +219,18 @@ def _run_loop(nsteps, dt, out_every, t0, alpha, alpha_r, margin, cell_h,
                 epen, pfr = contact_forces_2d(a, v, slaves, s_pair, segs, g_k, cand, ncand,
                                               p_mu, p_vreg, p_depth, f, gap)
             else:
-                # each slave's contact in parallel, then the forces added serially (shared master nodes)
-                for i in prange(ns):
+                # the slaves with candidates (an even share per thread), each one's contact in parallel, then
+                # the forces added serially (shared master nodes)
+                nact = 0
+                for i in range(ns):
+                    if ncand[i] > 0:
+                        c_act[nact] = i
+                        nact += 1
+                    else:
+                        c_out[i, 0] = -1.0
+                for q in prange(nact):
                     contact_slave_3d(a, v, slaves, s_pair, segs, g_k, g_rad, cand, ncand, p_mu, p_vreg, p_depth,
-                                     seg_open, allowance, i, c_lb, c_ord, c_out)
+                                     seg_open, allowance, c_act[q], c_lb, c_ord, c_out)
                 epen, pfr = contact_scatter_3d(slaves, segs, c_out, f, gap)
         if step > 0:
             acc[1] += pfr * dt
