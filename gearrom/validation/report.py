@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from gearrom.errors import ConfigError
-from gearrom.validation.compare import TOLERANCES, compare_metrics, steady_window, te_metrics
+from gearrom.validation.compare import PERIODIC_ORDERS, TOLERANCES, compare_metrics, steady_window, te_metrics
 from gearrom.validation.gates import record_gates
 from gearrom.validation.pair_rom import (PairRomSetup, mesh_excitation, polar_inertia, scaled_excitation,
                                          simulate_pair_rom, table_samples)
@@ -184,7 +184,21 @@ def validate_speed(pair, rpm: float, fe: FERecord, excitation, excitation_label:
         m_s, passed_s, misses_s = compare_metrics(te_metrics(rom_s.theta_in[ws], rom_s.te[ws], z1), m_fe, floor_um=floor)
         meta["diagnostic_stiffness_matched"] = {"stiffness_scale": scale, "metrics": m_s, "would_pass": passed_s,
                                                 "misses": misses_s}
+    meta["orders"] = _order_table(fe.theta_in[wf], fe.te[wf], rom.theta_in[wr], rom.te[wr], z1)
     return SpeedComparison(rpm, fe, rom.t, rom.theta_in, rom.te, meta, metrics, passed, misses, wf, wr, gates)
+
+
+def _order_table(th_fe, te_fe, th_rom, te_rom, z1: int) -> dict:
+    """Amplitudes [um] and phases [deg] of mesh orders 1..PERIODIC_ORDERS of FE and ROM: where the
+    periodic DTE RMS comes from."""
+    fe = te_metrics(th_fe, te_fe, z1, orders=PERIODIC_ORDERS)
+    rom = te_metrics(th_rom, te_rom, z1, orders=PERIODIC_ORDERS)
+    keys = range(1, PERIODIC_ORDERS + 1)
+    return {"order": list(keys),
+            "fe_amplitude_um": [fe[f"gmf{m}_amplitude_um"] for m in keys],
+            "rom_amplitude_um": [rom[f"gmf{m}_amplitude_um"] for m in keys],
+            "fe_phase_deg": [fe[f"gmf{m}_phase_deg"] for m in keys],
+            "rom_phase_deg": [rom[f"gmf{m}_phase_deg"] for m in keys]}
 
 
 @dataclass(frozen=True, eq=False)

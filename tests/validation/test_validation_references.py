@@ -77,6 +77,11 @@ def test_rom_matches_the_gmf_lines(rpm):
             continue
         assert abs(s.metrics[key]["rel_error"]) <= TOLERANCES[key], (key, s.metrics[key])
     assert abs(s.metrics["gmf1_phase_deg"]["error_deg"]) <= TOLERANCES["gmf1_phase_deg"]
+    # the report's order table carries the periodic DTE RMS (Parseval: RMS^2 = sum A_m^2 / 2, orders 1-20)
+    o = s.rom_meta["orders"]
+    for side in ("fe", "rom"):
+        rms = np.sqrt(np.sum(np.square(o[f"{side}_amplitude_um"])) / 2)
+        assert rms == pytest.approx(s.metrics["dte_periodic_rms_um"][side], rel=1e-6)
 
 
 @pytest.mark.parametrize("rpm", [pytest.param(r, marks=pytest.mark.xfail(strict=True, reason=KNOWN_MISSES[r]))
