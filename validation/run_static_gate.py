@@ -42,6 +42,8 @@ def main(n: int = 16, torques=(60.0, 120.0), outline: float = 0.15e-3, body: flo
     out = OUT if sag is None else OUT.with_name(f"{OUT.stem}_sag{sag * 1e6:g}um.json")
     if penalty != 0.3:
         out = out.with_name(f"{out.stem}_penalty{penalty:g}.json")
+    if body != 1.5e-3:
+        out = out.with_name(f"{out.stem}_body{body * 1e3:g}mm.json")
     data = json.loads(out.read_text()) if out.is_file() else {}
     pts = data.setdefault("points", {})
     data.update(config="thesis-spur", integration="full", outline_size_mm=outline * 1e3, body_size_mm=body * 1e3,
@@ -81,5 +83,7 @@ if __name__ == "__main__":
     ap.add_argument("--torques", type=float, nargs="+", default=[60.0, 120.0])
     ap.add_argument("--sag-um", type=float, default=None, help="outline refined to chords within this of the profile")
     ap.add_argument("--penalty", type=float, default=0.3, help="contact penalty scale (ContactPair.penalty_scale)")
+    ap.add_argument("--body-mm", type=float, default=1.5, help="body element size, mm (the references: 1.5)")
     a = ap.parse_args()
-    main(a.points, tuple(a.torques), sag=None if a.sag_um is None else a.sag_um * 1e-6, penalty=a.penalty)
+    main(a.points, tuple(a.torques), body=a.body_mm * 1e-3, sag=None if a.sag_um is None else a.sag_um * 1e-6,
+         penalty=a.penalty)
