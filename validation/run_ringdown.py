@@ -34,6 +34,8 @@ from gearrom.fe.explicit.gearpair import (GearPairSetup, gear_pair_model, loaded
 
 HERE = Path(__file__).resolve().parent
 log = logging.getLogger("ringdown")
+#: checkpoints of the ring-down runs (git-ignored, shared with the reference runs)
+CHECKPOINTS = HERE / "checkpoints"
 
 #: the reference model's discretization, shared by the ring-down and the reference runs (recorded in
 #: ringdown_spur.json, read by run_explicit_spur.py): 0.15 mm outline refined above the base circle to
@@ -88,7 +90,10 @@ def ringdown(pair, meshes, alpha: float, duration: float, relaxed=None, torque0:
         relaxed = relaxed_state(model, torque0)
     run = loaded_model(model, info, setup, relaxed)
     t0 = time.perf_counter()
-    res = solve(run, duration, 2e-6, parallel=parallel, chunks=8)
+    # checkpointed (a run takes tens of minutes on one core): running the script again resumes it
+    CHECKPOINTS.mkdir(exist_ok=True)
+    res = solve(run, duration, 2e-6, parallel=parallel, chunks=40,
+                checkpoint=CHECKPOINTS / f"ringdown_alpha{alpha:.10g}.ckpt.npz", checkpoint_every=120.0)
     te = transmission_error(res, info["rb"], info["clearance_angle"])
     w = res.t >= skip
     fit = fit_ringdown(res.t[w], te[w])
