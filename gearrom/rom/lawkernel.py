@@ -51,10 +51,6 @@ class LawTables:
             f = np.array([0.0, law.f_nom])
         return cls(np.ascontiguousarray(E), f, period)
 
-    def with_rows(self, E: np.ndarray) -> LawTables:
-        """The same forces with other knot deflections (e.g. band-limited rows)."""
-        return LawTables(np.ascontiguousarray(E, dtype=float), self.f, self.period)
-
 
 @njit(cache=True)
 def law_force(E, f, u, delta, ddelta, c):

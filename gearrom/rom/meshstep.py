@@ -125,7 +125,7 @@ class MeshStepper:
 
     def step_index(self, t: float) -> int:
         """Index of the coming step: exudyn passes the END time ``t_n + h`` of the coming step."""
-        return int(t / self.h + 0.5) - 1
+        return int(t * self._inv_h + 0.5) - 1
 
     def _make_update(self) -> Callable[[int], None]:
         """The per-step update :meth:`update` as a closure over everything it reads (it runs once per
@@ -175,7 +175,8 @@ class MeshStepper:
         self._update(n)
 
     def pre_step(self, mbs, t: float) -> bool:
-        """The exudyn pre-step user function of a run that needs nothing else per step."""
+        """The exudyn pre-step user function of a run that needs nothing else per step (the step index
+        of :meth:`step_index` written out: this runs once per time step)."""
         self._update(int(t * self._inv_h + 0.5) - 1)
         return True
 

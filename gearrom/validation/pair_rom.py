@@ -298,7 +298,8 @@ def simulate_pair_rom(pair, excitation, setup: PairRomSetup, t_end: float, sampl
     kin_step, kin = (1.0, np.zeros(1)) if kinematic is None else (float(kinematic[0]), np.asarray(kinematic[1], float))
     if kin.size > 1 and not kin_step > 0:
         raise ModelError(f"kinematic TE step must be > 0 rad, got {kin_step}")
-    ts, xs, fs = _integrate(n_steps, dt, every, om, phi0 / period * n_table, om / period * n_table, tab.E, tab.f, c,
+    n_grid = tab.E.shape[1]  # the law's phase in grid steps: u = (phi0 + om t) / period * n_grid
+    ts, xs, fs = _integrate(n_steps, dt, every, om, phi0 / period * n_grid, om / period * n_grid, tab.E, tab.f, c,
                             meq, setup.torque_out, setup.torque_ramp_time, rb2, kin, kin_step)
     wall = time.perf_counter() - t0
     meta = {"model": "1-DOF pair ROM (prescribed input speed, free output inertia), RK4/numba",

@@ -66,7 +66,7 @@ def test_compiled_law_matches_the_analytic_law_and_the_map():
     fm = ForceMap.from_table(ex, rb2, 120.0, n=64)
     period = 2 * np.pi / 20
 
-    class _Law:  # the two attributes LawTables reads from a load-dependent MeshLaw
+    class _Law:  # what LawTables reads from a load-dependent MeshLaw
         z1 = 20
         load_dependent = True
         force_map = fm

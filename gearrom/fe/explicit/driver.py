@@ -481,6 +481,10 @@ def solve(model: ExplicitModel, t_end: float, sample_period: float | None = None
         if resume and checkpoint.is_file():
             row, first, t0, wall_before = _load_checkpoint(checkpoint, st, out, key)
             log.info("explicit: resumed from %s at t = %.4e s (chunk %d of %d)", checkpoint, t0, first, chunks)
+    # the loop's array groups (the state arrays are updated in place; the output rows change per chunk)
+    src = {**d, **st, "X": model.nodes, "probes": probes}
+    fixed = tuple(tuple(src[k] for k in names) for names in
+                  (STATE_ARRAYS, NODE_ARRAYS, ELEMENT_ARRAYS, LOAD_ARRAYS, REFERENCE_ARRAYS, CONTACT_ARRAYS))
     wall0 = time.perf_counter()
     last_save = wall0
     steps_run = 0
@@ -491,16 +495,9 @@ def solve(model: ExplicitModel, t_end: float, sample_period: float | None = None
         nsteps = n_out * out_every
         # chunk 0 writes rows [0, n_out]; a later chunk starts by rewriting the previous last row
         sl = slice(row - 1 if c else 0, None)
-        o = {k: x[sl] for k, x in out.items()}
-        src = {**d, **st, **o, "X": model.nodes, "probes": probes}
-
-        def group(names):
-            return tuple(src[k] for k in names)
-
+        o = {**{k: x[sl] for k, x in out.items()}, "probes": probes}
         written = run_loop(nsteps, step_dt, out_every, t0, model.mass_damping, model.relative_damping,
-                           d["margin"], d["cell_h"], group(STATE_ARRAYS), group(NODE_ARRAYS),
-                           group(ELEMENT_ARRAYS), group(LOAD_ARRAYS), group(REFERENCE_ARRAYS),
-                           group(CONTACT_ARRAYS), group(OUTPUT_ARRAYS), st["acc"])
+                           d["margin"], d["cell_h"], *fixed, tuple(o[k] for k in OUTPUT_ARRAYS), st["acc"])
         row = (row - 1 if c else 0) + written
         t0 += nsteps * step_dt
         steps_run += nsteps
