@@ -12,7 +12,6 @@ Run: ``python benchmarks/bench_diagnose.py [--quick]``. Writes ``benchmarks/resu
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import sys
 import tempfile

@@ -2,8 +2,8 @@
 
 Pipeline (:func:`diagnose`): measured runs (``gearrom.measurement/1``) -> :mod:`.residual` (same TE
 processing for model and measurement, honest mesh-phase alignment) -> :mod:`.model` (nominal
-simulation and drivetrain sensitivities per run) -> :mod:`.fit` / :mod:`.select` (library
-candidates ranked by the residual they explain, bounded fits, ambiguities) -> verification
+simulation and drivetrain sensitivities per run) -> :mod:`.fit` / :mod:`.select` (candidates of
+the registered effects, :mod:`.registry` and :mod:`.effects`, ranked by the residual they explain, bounded fits, ambiguities) -> verification
 re-simulation -> :mod:`.characterize` (orders, sidebands, fixed vs tracking, unexplained lines) ->
 :class:`DiagnosisResult` (JSON, text, plots, save/load).
 
@@ -13,8 +13,9 @@ model :class:`~gearrom.calibrate.rig.TorsionalRig`. Micro-geometry changes throu
 tables without an FE solve (:class:`~gearrom.calibrate.microfe.FEMicroModel`; the analytical
 :class:`~gearrom.calibrate.microgeom.SliceMicroModel` only as an explicit fallback).
 """
+import gearrom.calibrate.effects  # noqa: F401  (registers the built-in effects)
 from gearrom.calibrate.diagnose import diagnose
-from gearrom.calibrate.effects import LIBRARY, Effect, EffectSpec, check_name
+from gearrom.calibrate.registry import LIBRARY, PLUGINS, EffectPlugin, EffectSpec, check_name, register, unregister
 from gearrom.calibrate.fit import FitSettings
 from gearrom.calibrate.microfe import FEMicroModel, with_micro
 from gearrom.calibrate.microgeom import MicroGeometryModel
@@ -25,6 +26,6 @@ from gearrom.calibrate.simulator import (ModelChanges, RomSimulator, RunConditio
                                          default_simulator)
 from gearrom.calibrate.synthetic import Injected, make_run
 
-__all__ = ["LIBRARY", "DiagnosisResult", "Effect", "EffectSpec", "FEMicroModel", "FitSettings", "Injected", "MicroGeometryModel",
+__all__ = ["LIBRARY", "PLUGINS", "DiagnosisResult", "EffectPlugin", "EffectSpec", "FEMicroModel", "FitSettings", "Injected", "MicroGeometryModel",
            "MicroMods", "ModelChanges", "RigParams", "RomSimulator", "RunConditions", "SimHistory", "SliceMicroModel",
-           "Simulator", "TorsionalRig", "check_name", "default_simulator", "diagnose", "make_run", "with_micro"]
+           "Simulator", "TorsionalRig", "check_name", "default_simulator", "diagnose", "make_run", "register", "unregister", "with_micro"]

@@ -18,13 +18,13 @@ from pathlib import Path
 import numpy as np
 
 import gearrom.calibrate.characterize as chz
-from gearrom.calibrate.effects import LIBRARY
 from gearrom.calibrate.candidates import make_candidates
 from gearrom.calibrate.fit import Context, FitSettings, Trial
 from gearrom.calibrate.microfe import FEMicroModel
 from gearrom.calibrate.model import build_run_model
 from gearrom.calibrate.report import DiagnosisResult, RunTraces
-from gearrom.calibrate.residual import fit_lines, load_run, rms
+from gearrom.calibrate.registry import LIBRARY, PLUGINS
+from gearrom.calibrate.residual import load_run, rms
 from gearrom.calibrate.select import select_effects, verify
 from gearrom.calibrate.simulator import default_simulator
 from gearrom.errors import CalibrationError
@@ -98,9 +98,7 @@ def diagnose(config: str | Path, measurements: Sequence[str | Path], *, simulato
     res = _assemble(ctx, config, sim, D, accepted, steps, after)
     wanted = settings.candidates or tuple(LIBRARY)
     missing = sorted(set(wanted) - {c.name for c in candidates})
-    res.summary["not_evaluated"] = [
-        {"effect": n, "reason": "the simulator exposes no tunable rig parameters" if n == "torsional_mode"
-         else "no candidate could be built"} for n in missing]
+    res.summary["not_evaluated"] = [{"effect": n, "reason": PLUGINS[n].not_evaluated} for n in missing]
     for n in missing:
         res.summary["warnings"].append(f"{n} was not evaluated ({res.summary['not_evaluated'][missing.index(n)]['reason']})")
     return res
@@ -113,89 +111,13 @@ def _wrap_deg(psi: float, z1: int) -> float:
     return d - period if d > period / 2 else d
 
 
-def _line_amp(x: np.ndarray, run, shaft: str, order: int = 1) -> float:
-    line = [[order, 0.0]] if shaft == "input" else [[0.0, order]]
-    return float(abs(fit_lines(x, run.theta_in_rad, run.theta_out_rad, np.array(line))[0]))
-
-
-def _same_line(mesh, shaft: str) -> str:
-    """`` (= order k of the <other> shaft, the same line)`` when order 1 of ``shaft`` is an integer order of
-    the other shaft (integer ratio), else ``""``: the line carries both names."""
-    a, b = (mesh.z1, mesh.z2) if shaft == "input" else (mesh.z2, mesh.z1)
-    if b % a:
-        return ""
-    return f" (= order {b // a} of the {'output' if shaft == 'input' else 'input'} shaft, the same line)"
-
-
 def _evidence(ctx: Context, t: Trial, D: list) -> str:
     share = t.info.get("explained_share", 0.0)
     ru = t.info.get("runner_up")
     txt = f"explains {100 * share:.0f} % of the residual energy"
     if ru:
         txt += f" (next: {ru['effect']}{'/' + ru['target'] if ru['target'] else ''} {100 * ru['explained_share']:.0f} %)"
-    name = t.cand.name
-    if name in ("eccentricity", "encoder_eccentricity"):
-        shaft = "input" if t.cand.target.startswith("input") else "output"
-        other = 2 if shaft == "input" else 1
-        m, d, c = ctx.models[0], D[0], t.contrib[0]
-        te = _line_amp(d[0], m.run, shaft) / UM
-        oth_meas = _line_amp(d[other], m.run, shaft) / UM
-        oth_pred = _line_amp(c[other], m.run, shaft) / UM
-        same = _same_line(m.run.mesh, shaft)
-        txt += (f"; order 1 of the {shaft} shaft{same}: {te:.3g} um in the TE; the other channel "
-                f"({'output' if other == 2 else 'input'}) moves {oth_meas:.3g} um at that order (this effect "
-                f"predicts {oth_pred:.3g} um; "
-                + ("real shaft motion: a mesh excitation, not a measurement error)" if name == "eccentricity"
-                   else "an encoder error moves no shaft)"))
-        st = t.info.get("split_test")
-        if st:
-            txt += (f"; split test: other channel {100 * st['other_channel_share']:.1f} % of the TE line -> "
-                    f"{ {'real': 'the shaft moves', 'none': 'nothing moves', 'unclear': 'unclear'}[st['verdict']] }")
-    elif name == "pitch_error":
-        shaft = t.cand.target.split("_")[0]
-        crest = chz.impulsiveness(ctx.models[0].run, D[0][0]).get(shaft)
-        txt += f"; impulsive once-per-rev pattern of the {shaft} gear (comb of its shaft orders"
-        txt += f", crest factor of the per-revolution average {crest:.2g})" if crest else ")"
-    elif name in ("tip_relief", "lead_crowning", "helix_slope"):
-        if t.info.get("psi_runs_realigned") is not None:
-            ph = "re-estimated from the modified model's own GMF lines, as for the nominal model"
-        elif t.info.get("psi_rad") is None:
-            ph = (f"estimated from the nominal GMF, moved by {math.degrees(t.info.get('dpsi_rad', 0.0)):.2f} deg of "
-                  "input angle with the modification")
-        else:
-            ph = "fitted: nominal had no GMF content"
-        txt += f"; GMF harmonics changed as the flank modification predicts (mesh phase {ph})"
-    elif name == "torsional_mode":
-        rep = t.cand.report(t.x, t.info)
-        txt += f"; the residual follows a re-tuned rig ({t.info.get('parameter')} x{rep['scale']:.3g})"
-        if "frequency_hz" in rep:
-            txt += (f", which moves a mode from {rep['nominal_frequency_hz']:.0f} to {rep['frequency_hz']:.0f} Hz "
-                    "and changes the response of the lines near it")
-    return txt
-
-
-def _size(effect: dict) -> tuple[float, str] | None:
-    p = effect["parameters"]
-    for k in ("amplitude_um", "deviation_um", "amount_um"):
-        if k in p:
-            return abs(p[k]), k
-    return None
-
-
-def _sigma(t: Trial) -> float | None:
-    """Standard deviation of the size of an accepted effect, um (see :func:`~gearrom.calibrate.fit.size_uncertainty`).
-
-    Amplitude of a cos/sin pair: the rms of the two components' deviations (Rayleigh scale); per-run
-    pairs: their mean over the runs, as the reported amplitude is their mean."""
-    if "sigma_size_um" in t.info:
-        return float(t.info["sigma_size_um"])
-    if t.info.get("sigma_um") is None:
-        return None
-    s = np.atleast_1d(np.asarray(t.info["sigma_um"], float))
-    if t.cand.name in ("eccentricity", "encoder_eccentricity") and s.size % 2 == 0:
-        pairs = np.sqrt(0.5 * (s[0::2] ** 2 + s[1::2] ** 2))
-        return float(np.sqrt(np.sum(pairs ** 2)) / pairs.size)
-    return float(s[0])
+    return txt + PLUGINS[t.cand.name].evidence(ctx, t, D)
 
 
 def _assemble(ctx: Context, config, sim, D, accepted, steps, after) -> DiagnosisResult:
@@ -229,19 +151,16 @@ def _assemble(ctx: Context, config, sim, D, accepted, steps, after) -> Diagnosis
         e = {"effect": t.cand.name, "target": t.cand.target or None, "parameters": params,
              "evidence": _evidence(ctx, t, D), "rms_reduction_um": (without - full) / UM,
              "explained_share": t.info.get("explained_share")}
-        if t.cand.name == "pitch_error":
-            k, z = params["tooth_index"], t.info["z"]
-            e["parameters"]["single_pitch_deviations_um"] = {str(k): params["deviation_um"],
-                                                              str((k + 1) % z): -params["deviation_um"]}
-            e["parameters"]["cumulative_pitch_deviation_um"] = abs(params["deviation_um"])
-        sz = _size(e)
-        tol = LIBRARY[t.cand.name].tolerance.get(t.cand.target)
-        if sz is not None and tol is not None:
-            e["within_tolerance"] = bool(sz[0] <= tol)
+        e["parameters"].update(PLUGINS[t.cand.name].report_extra(params, t.info))
+        spec = LIBRARY[t.cand.name]
+        size = abs(params[spec.size_key]) if spec.size_key in params else None
+        tol = spec.tolerance.get(t.cand.target)
+        if size is not None and tol is not None:
+            e["within_tolerance"] = bool(size <= tol)
             e["drawing_tolerance_um"] = tol
-        sigma = _sigma(t)
-        if sz is not None and sigma is not None:
-            e["uncertainty_um"] = {sz[1]: sigma}
+        sigma = t.cand.size_sigma(t.info)
+        if size is not None and sigma is not None:
+            e["uncertainty_um"] = {spec.size_key: sigma}
         effects.append(e)
         for rv in t.info.get("rivals", []):
             ambiguities.append({"chosen": f"{t.cand.name}/{t.cand.target}" if t.cand.target else t.cand.name,
@@ -257,11 +176,8 @@ def _assemble(ctx: Context, config, sim, D, accepted, steps, after) -> Diagnosis
     for u in unexplained:  # a leftover at the lines of a fitted effect is a misfit of it, not a new effect
         labs = (u.get("integer_order") or "").split(" = ")  # an integer ratio names a line for both shafts
         for t in accepted:
-            n, shaft = t.cand.name, t.cand.target.split("_")[0]
-            if any(("GMF" in lab and n in ("tip_relief", "lead_crowning", "helix_slope", "torsional_mode"))
-                   or (lab == f"{shaft} order 1" and n in ("eccentricity", "encoder_eccentricity"))
-                   or (n == "pitch_error" and lab.startswith(shaft)) for lab in labs):
-                u["at_lines_of"] = n
+            if any(PLUGINS[t.cand.name].explains_line(t.cand.target, lab) for lab in labs):
+                u["at_lines_of"] = t.cand.name
     peaks_b = [chz.spectral_peaks(rb, m.run.fs_hz, m.noise_m) for rb, m in zip(res_b, models)]
     noise_line = [m.noise_m * math.sqrt(2 / m.run.t_s.size) for m in models]
     characterization = {

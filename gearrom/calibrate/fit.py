@@ -1,14 +1,9 @@
 """Candidate effects: their predicted signatures, bounded least-squares fits, ranking and selection.
 
 Every candidate (library effect x target) predicts the three compared signals (te, u_in, u_out)
-of every run from its parameters, through the run's model sensitivities (:mod:`.model`):
-
-* ``eccentricity``: ``Re(H(1) a e^{i phi} e^{i theta})`` of its shaft (te and both channels move);
-* ``pitch_error``: one displaced tooth followed through its engagement, fitted on the pulse train it
-  leaves (:mod:`gearrom.calibrate.fit_tooth`);
-* ``encoder_eccentricity``: ``a cos(theta + phi)`` in te and in its own channel only;
-* ``tip_relief`` / ``lead_crowning`` / ``helix_slope`` and ``torsional_mode``: see
-  :mod:`gearrom.calibrate.fit_mesh`.
+of every run from its parameters, through the run's model sensitivities (:mod:`.model`). The
+candidate classes of the effects are in their modules (:mod:`gearrom.calibrate.effects`); this
+module holds the base class, the shared shaft-order fit (:class:`ShaftOrder`) and the settings.
 
 The stacked, weighted residual of all runs (te weight 1, channels ``channel_weight``) is fitted
 by each candidate alone (bounded least squares: :func:`scipy.optimize.lsq_linear` for the linear
@@ -28,7 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import lsq_linear
 
-from gearrom.calibrate.effects import LIBRARY, amp_phase
+from gearrom.calibrate.registry import LIBRARY, amp_phase
 from gearrom.excitation.slices import MicroMods
 from gearrom.calibrate.model import N_TABLE, RunModel
 from gearrom.calibrate.residual import detrend
@@ -106,7 +101,18 @@ class Context:
 
 
 class Candidate:
-    """A (library effect, target) pair; subclasses implement :meth:`fit`."""
+    """A (library effect, target) pair; subclasses implement :meth:`fit`, :meth:`report` and the model change.
+
+    Class attributes
+    ----------------
+    exclusive : bool
+        At most one candidate of this effect is accepted per diagnosis (e.g. one re-tuned rig parameter).
+    expensive : bool
+        The fit re-simulates; once it explains nothing significant it is not tried again in later steps.
+    """
+
+    exclusive = False
+    expensive = False
 
     def __init__(self, name: str, target: str):
         self.name, self.target = name, target
@@ -122,6 +128,10 @@ class Candidate:
     def report(self, x: np.ndarray, info: dict) -> dict:  # pragma: no cover
         raise NotImplementedError
 
+    def refit(self, ctx: Context, R: np.ndarray, previous: Trial) -> Trial:
+        """Fit again on ``R`` (the joint refit), starting from a previous fit of this candidate."""
+        return self.fit(ctx, R)
+
     def changes(self, x: np.ndarray, info: dict, ctx: Context, run: int = 0) -> dict:
         """Keyword changes for the verification simulation (kinematic tables, micro, rig scale)."""
         return {}
@@ -129,6 +139,14 @@ class Candidate:
     def measurement_term(self, x: np.ndarray, info: dict, ctx: Context) -> list | None:
         """Measurement-only contribution per run (encoder errors), else None."""
         return None
+
+    def size_sigma(self, info: dict) -> float | None:
+        """Standard deviation of the reported size, um (None when the fit gives none)."""
+        if "sigma_size_um" in info:
+            return float(info["sigma_size_um"])
+        if info.get("sigma_um") is None:
+            return None
+        return float(np.atleast_1d(np.asarray(info["sigma_um"], float))[0])
 
     def __repr__(self) -> str:
         return f"{self.name}[{self.target}]"
@@ -195,15 +213,21 @@ def shaft_angle(m: RunModel, shaft: str) -> np.ndarray:
     return m.run.theta_in_rad if shaft == "input" else m.run.theta_out_rad
 
 
-class OncePerRev(Candidate):
-    """eccentricity (through the drivetrain) or encoder_eccentricity (measurement only).
+class ShaftOrder(Candidate):
+    """A line at order :attr:`order` of the target's shaft, fitted as a cos/sin pair per run (or one pair for
+    runs recorded from a common index): the base of once-per-rev effects.
 
-    The TE is the difference of the two channels; the channels add one piece of information: how a
-    once-per-rev TE component splits between them. An encoder error sits in its own channel only;
-    gear runout moves the drivetrain, split as the model's dynamics predict (``H`` of the channels).
-    Because another rig may split differently, :func:`gearrom.calibrate.select.split_test` settles
-    close calls between the two on the measured split alone (does the other shaft move at that order?).
+    Subclasses give the per-run signals (te, u_in, u_out) of the unit cos or sin line (:meth:`unit_line`)
+    and say where the fitted line goes: a kinematic table through the drivetrain (:meth:`changes`) or a
+    measurement-only term (:attr:`measurement_only`).
     """
+
+    order = 1
+    measurement_only = False
+
+    def unit_line(self, m: RunModel, shaft: str, basis: complex) -> np.ndarray:  # pragma: no cover - abstract
+        """Signals (3, n) of run ``m`` for the line ``Re(basis e^{i order theta})`` of 1 um."""
+        raise NotImplementedError
 
     def _cols(self, ctx: Context) -> list:
         shaft = shaft_of(self.target)
@@ -211,14 +235,7 @@ class OncePerRev(Candidate):
         nr = len(ctx.models)
         cols = []
         for basis in (1.0, 1j):
-            per = []
-            for m in ctx.models:
-                if self.name == "eccentricity":
-                    per.append(detrend_like_data(m.response(shaft, {1: basis * UM})))
-                else:
-                    v = detrend_like_data((basis * UM * np.exp(1j * shaft_angle(m, shaft))).real)
-                    z = np.zeros_like(v)
-                    per.append(np.vstack([v, v, z]) if shaft == "input" else np.vstack([v, z, -v]))
+            per = [detrend_like_data(self.unit_line(m, shaft, basis)) for m in ctx.models]
             if shared:
                 cols.append(per)
             else:
@@ -250,17 +267,38 @@ class OncePerRev(Candidate):
         return out
 
     def changes(self, x, info, ctx, run: int = 0):
-        if self.name != "eccentricity":
+        if self.measurement_only:
             return {}
         a, ph, pairs = self._amp_phase(x)
         if len(pairs) > 1:  # phases per run (files not started at the encoder index)
             a, ph = pairs[run]
         th = np.arange(N_TABLE) * 2 * math.pi / N_TABLE
-        tab = a * UM * np.cos(th + math.radians(ph))
+        tab = a * UM * np.cos(self.order * th + math.radians(ph))
         return {"kinematic_in" if shaft_of(self.target) == "input" else "kinematic_out": tab}
 
     def measurement_term(self, x, info, ctx):
-        if self.name != "encoder_eccentricity":
+        if not self.measurement_only:
             return None
         cols = self._cols(ctx)
         return [sum(x[j] * cols[j][r] for j in range(len(cols))) for r in range(len(ctx.models))]
+
+    def size_sigma(self, info: dict) -> float | None:
+        """Amplitude of cos/sin pairs: the rms of the two components' deviations (Rayleigh scale); per-run
+        pairs: their mean over the runs, as the reported amplitude is their mean."""
+        if "sigma_size_um" in info:
+            return float(info["sigma_size_um"])
+        if info.get("sigma_um") is None:
+            return None
+        s = np.atleast_1d(np.asarray(info["sigma_um"], float))
+        if s.size % 2:
+            return float(s[0])
+        pairs = np.sqrt(0.5 * (s[0::2] ** 2 + s[1::2] ** 2))
+        return float(np.sqrt(np.sum(pairs ** 2)) / pairs.size)
+
+
+def measured_line(m: RunModel, shaft: str, basis: complex, order: int = 1) -> np.ndarray:
+    """Signals (3, n) of an angle error of one encoder whose TE equivalent is ``Re(basis 1um e^{i order theta})``:
+    it appears in the TE and in the encoder's own channel only (no shaft moves)."""
+    v = (basis * UM * np.exp(1j * order * shaft_angle(m, shaft))).real
+    z = np.zeros_like(v)
+    return np.vstack([v, v, z]) if shaft == "input" else np.vstack([v, z, -v])

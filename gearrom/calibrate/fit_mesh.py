@@ -1,15 +1,15 @@
-"""Candidates acting on the mesh excitation or the rig: flank modifications and mis-tuned modes.
+"""The fit shared by flank modifications (:class:`FlankModification`), which act on the mesh excitation.
 
-* :class:`Micro` (``tip_relief``, ``lead_crowning``, ``helix_slope``): the STE change of the GMF
-  harmonics from the micro-geometry model (the quasi-static FE tables without a new FE solve by
-  default), through the run's sensitivity ``H(h z1)``, plus the response to the change of the mean
-  mesh stiffness (one re-simulation per run with the stiffness x0.9). When the nominal model has no
-  GMF content to align, the mesh phase is estimated together with the modification (the nominal
-  GMF lines rotated consistently); else the estimate from the nominal lines may move by +-5 % of a
-  mesh period (a flank change moves the GMF phases that estimate was made from). The leading
-  candidates are refined by re-simulation.
-* :class:`RigMode` (``torsional_mode``): one rig parameter scaled, by re-simulation; the mesh phase
-  is re-estimated from the re-tuned model's own GMF lines, as for the nominal model.
+The STE change of the GMF harmonics from the micro-geometry model (the quasi-static FE tables without
+a new FE solve by default), through the run's sensitivity ``H(h z1)``, plus the response to the change of the mean
+mesh stiffness (one re-simulation per run with the stiffness x0.9). When the nominal model has no
+GMF content to align, the mesh phase is estimated together with the modification (the nominal GMF
+lines rotated consistently); else the estimate from the nominal lines may move by +-5 % of a mesh
+period (a flank change moves the GMF phases that estimate was made from). The leading candidates
+are refined by re-simulation.
+
+The effects that use it (``tip_relief``, ``lead_crowning``, ``helix_slope``) are modules of
+:mod:`gearrom.calibrate.effects`.
 """
 from __future__ import annotations
 
@@ -22,6 +22,7 @@ from scipy.optimize import minimize, minimize_scalar
 from gearrom.calibrate.fit import N_MESH_HARMONICS, UM, Candidate, Context, Trial, detrend_like_data
 from gearrom.excitation.slices import MicroMods
 from gearrom.calibrate.model import RunModel, realigned
+from gearrom.calibrate.registry import EffectPlugin
 from gearrom.calibrate.residual import fit_lines, map_to_run
 from gearrom.calibrate.simulator import ModelChanges
 
@@ -64,23 +65,22 @@ def _stiffness_lines(ctx: Context) -> list:
     return ctx._ste[key]
 
 
-class Micro(Candidate):
-    """tip_relief / lead_crowning / helix_slope through the STE change at the GMF harmonics."""
+class FlankModification(Candidate):
+    """A flank modification (tip relief, lead crowning, helix slope...) through the STE change at the GMF
+    harmonics. Subclasses give :meth:`modified` (the micro-geometry with the modification's size added)
+    and :attr:`signed` (whether the size may be negative)."""
+
+    signed = False
+
+    def modified(self, base: MicroMods, value_m: float) -> MicroMods:  # pragma: no cover - abstract
+        """``base`` with the modification of ``value_m`` [m] added on this candidate's target."""
+        raise NotImplementedError
 
     def _mods(self, ctx: Context, value_um: float) -> MicroMods:
-        base = ctx.micro_nominal
-        v = value_um * UM
-        if self.name == "tip_relief":
-            tr = list(base.tip_relief)
-            i = 0 if self.target == "input_gear" else 1
-            tr[i] = tr[i] + v
-            return MicroMods(tuple(tr), base.tip_relief_start_diameter, base.lead_crowning, base.helix_slope)
-        if self.name == "lead_crowning":
-            return MicroMods(base.tip_relief, base.tip_relief_start_diameter, base.lead_crowning + v, base.helix_slope)
-        return MicroMods(base.tip_relief, base.tip_relief_start_diameter, base.lead_crowning, base.helix_slope + v)
+        return self.modified(ctx.micro_nominal, value_um * UM)
 
     def _lo(self):
-        return -self.bound if self.name == "helix_slope" else 0.0
+        return -self.bound if self.signed else 0.0
 
     def _delta_ste(self, ctx: Context, torque: float, value: float) -> np.ndarray:
         """STE change of the GMF harmonics at ``value`` um: the micro-geometry model on a grid of 11 values
@@ -195,9 +195,7 @@ class Micro(Candidate):
         contrib = self._contrib(ctx, waves, v, psi0)
         assert nr == len(contrib)
         info = {"psi_rad": psi0} if free else {"dpsi_rad": psi0}
-        if self.name == "tip_relief":
-            dca = ctx.micro_nominal.tip_relief_start_diameter[0 if self.target == "input_gear" else 1]
-            info["start_diameter_mm"] = None if dca is None else dca * 1e3  # from the config (not fitted)
+        info["fixed"] = self.fixed_parameters(ctx)
         return Trial(self, np.array([v]), contrib, d, 2, info)
 
     def resimulated(self, ctx: Context, value: float, psi_free, realign: bool = False) -> tuple[list, list | None]:
@@ -251,87 +249,49 @@ class Micro(Candidate):
             info["psi_runs_realigned"] = cache[best][2]
         return Trial(self, np.array([best]), cache[best][1], cache[best][0], t.n_par, info)
 
+    def refit(self, ctx: Context, R: np.ndarray, previous: Trial) -> Trial:
+        t = self.fit(ctx, R)
+        return self.refine(ctx, R, t)
+
+    def fixed_parameters(self, ctx: Context) -> dict:
+        """Parameters of the modification taken from the config, not fitted (reported with the size)."""
+        return {}
+
     def report(self, x, info):
-        out = {"amount_um": float(x[0])}
-        if self.name == "tip_relief":
-            out["start_diameter_mm"] = info.get("start_diameter_mm")
-        return out
+        return {"amount_um": float(x[0]), **info.get("fixed", {})}
 
     def changes(self, x, info, ctx, run: int = 0):
         return {"micro": self._mods(ctx, float(x[0]))}
 
 
-PROBE_SHARE = 0.02  # share of the residual energy a rig parameter must explain at x0.8 or x1.25 to be searched
+class FlankPlugin(EffectPlugin):
+    """The hooks flank modifications share: mesh-phase evidence, GMF lines, and a pair-level amount written
+    to the input gear's ``<name>_um`` (the pair's value is the sum over both gears)."""
+
+    def evidence(self, ctx, trial, D):
+        return mesh_phase_note(trial.info)
+
+    def explains_line(self, target, label):
+        return explains_gmf(label)
+
+    def write_config(self, draft, target, params):
+        s = draft.micro_section("input_gear")
+        key = f"{self.spec.name}_um"
+        s[key] = s.get(key, 0.0) + float(params["amount_um"])
 
 
-class RigMode(Candidate):
-    """torsional_mode: one rig parameter scaled, by re-simulation."""
+def mesh_phase_note(info: dict) -> str:
+    """How the mesh phase of a fitted flank modification was found, for its evidence."""
+    if info.get("psi_runs_realigned") is not None:
+        ph = "re-estimated from the modified model's own GMF lines, as for the nominal model"
+    elif info.get("psi_rad") is None:
+        ph = (f"estimated from the nominal GMF, moved by {math.degrees(info.get('dpsi_rad', 0.0)):.2f} deg of "
+              "input angle with the modification")
+    else:
+        ph = "fitted: nominal had no GMF content"
+    return f"; GMF harmonics changed as the flank modification predicts (mesh phase {ph})"
 
-    def __init__(self, param: str):
-        super().__init__("torsional_mode", "")
-        self.param = param
 
-    def __repr__(self):
-        return f"torsional_mode[{self.param}]"
-
-    def _contrib(self, ctx: Context, scale: float) -> tuple[list, list]:
-        out, psis = [], []
-        for m in ctx.models:
-            h = ctx.sim.simulate(m.cond, ModelChanges(rig_scale=((self.param, scale),)))
-            mapped, psi = realigned(m, h)
-            out.append(mapped - m.nominal)
-            psis.append(psi)
-        return out, psis
-
-    def fit(self, ctx, R, x0: float | None = None):
-        """Bounded search of the scale in log space: two probes (x0.8, x1.25) screen the parameter, then the
-        search walks towards the better probe on a x1.25 ladder (0.4..2.5) and refines between the
-        neighbours of the best step. ``x0``: refine around a previous estimate only (joint refit)."""
-        cache = {}
-
-        def dss(logs):
-            s = round(math.exp(logs), 6)
-            if s not in cache:
-                c, psis = self._contrib(ctx, s)
-                v = ctx.stack(c)
-                cache[s] = (float(2 * v @ R - v @ v), c, psis)
-            return cache[s][0]
-
-        step = math.log(1.25)
-        if x0 is not None:
-            g0 = math.log(x0)
-            lo, hi = g0 - step, g0 + step
-        else:
-            probes = {math.log(0.8): dss(math.log(0.8)), math.log(1.25): dss(math.log(1.25))}
-            if max(probes.values()) < PROBE_SHARE * float(R @ R):
-                s = round(0.8 if probes[math.log(0.8)] >= probes[math.log(1.25)] else 1.25, 6)
-                return Trial(self, np.array([s]), cache[s][1], max(probes.values()), 1,
-                             {"parameter": self.param, "psi_runs": cache[s][2], "screened": True})
-            best = max(probes, key=probes.get)
-            direction = -1.0 if best < 0 else 1.0
-            g = best
-            while abs(g + direction * step) <= math.log(2.5) + 1e-9 and dss(g + direction * step) > dss(g):
-                g += direction * step
-            lo, hi = g - step, g + step
-            if lo < 0 < hi and direction > 0:  # the ladder jumps over 1 (0.8 -> 1.25): search from 0.8
-                lo = math.log(0.8)
-            if lo < 0 < hi and direction < 0:
-                hi = math.log(1.25)
-        r = minimize_scalar(lambda q: -dss(q), bounds=(lo, hi), method="bounded", options={"xatol": 0.004, "maxiter": 8})
-        s = max(cache, key=lambda k: cache[k][0])
-        if -r.fun > cache[s][0]:
-            s = round(math.exp(float(r.x)), 6)
-        return Trial(self, np.array([s]), cache[s][1], cache[s][0], 1, {"parameter": self.param, "psi_runs": cache[s][2]})
-
-    def report(self, x, info):
-        s = float(x[0])
-        out = {"parameter": self.param, "scale": s}
-        modes0 = getattr(self.sim_ref, "modes_hz", lambda *_: [])() if hasattr(self, "sim_ref") else []
-        modes1 = self.sim_ref.modes_hz(((self.param, s),)) if modes0 else []
-        if modes0 and modes1 and len(modes0) == len(modes1):
-            j = int(np.argmax([abs(b[0] / a[0] - 1) for a, b in zip(modes0, modes1)]))
-            out.update(frequency_hz=modes1[j][0], damping_ratio=modes1[j][1], nominal_frequency_hz=modes0[j][0])
-        return out
-
-    def changes(self, x, info, ctx, run: int = 0):
-        return {"rig_scale": ((self.param, float(x[0])),)}
+def explains_gmf(label: str) -> bool:
+    """A residual line at a GMF harmonic (the lines a mesh-table or rig change acts on)."""
+    return "GMF" in label

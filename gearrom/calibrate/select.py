@@ -7,45 +7,15 @@ import math
 import numpy as np
 from scipy.optimize import lsq_linear
 
-from gearrom.calibrate.fit import Context, Trial
-from gearrom.calibrate.fit_mesh import Micro, RigMode
+from gearrom.calibrate.fit import Context, ShaftOrder, Trial
+from gearrom.calibrate.fit_mesh import FlankModification
 from gearrom.excitation.slices import MicroMods
 from gearrom.calibrate.model import realigned
 from gearrom.calibrate.residual import map_to_run
+from gearrom.calibrate.registry import suggestion
 from gearrom.calibrate.simulator import ModelChanges
 
 log = logging.getLogger(__name__)
-
-SUGGEST = {
-    frozenset({"eccentricity", "encoder_eccentricity"}):
-        "rotate the encoder disc on its shaft (e.g. by 90 deg) and repeat a run: an encoder error moves with the "
-        "encoder, gear runout stays; or run where that shaft's order 1 meets the first torsional mode, where "
-        "runout is dynamically amplified and an encoder error is not",
-    frozenset({"tip_relief"}):
-        "repeat at a second load (e.g. half and double torque): tip relief of the driving and driven gear changes "
-        "the GMF harmonics differently with load",
-    frozenset({"lead_crowning", "helix_slope"}):
-        "repeat at a second load (e.g. half and double torque) and measure the contact pattern: crowning keeps "
-        "the load centred on the face at every load, a helix slope moves it to one face end and its effect on "
-        "the GMF harmonics fades once the whole face carries load",
-    frozenset({"pitch_error"}):
-        "a longer record (a whole hunting-tooth period) separates the two gears' revolution patterns",
-    frozenset({"torsional_mode"}):
-        "runs at more speeds, so that GMF harmonics and shaft orders pass the mode at different frequencies, "
-        "or an impact test of the rig",
-}
-
-
-def suggestion(a: tuple[str, str], b: tuple[str, str]) -> str:
-    """What extra run would separate candidates ``a`` and ``b`` (names, targets)."""
-    key = frozenset({a[0], b[0]})
-    if key in SUGGEST:
-        return SUGGEST[key]
-    if a[0] == b[0] and frozenset({a[0]}) in SUGGEST:
-        return SUGGEST[frozenset({a[0]})]
-    return "a run at a clearly different speed and one at a different load: the two effects predict different " \
-           "speed and load dependence"
-
 
 REFINE_TOP = 4  # flank-modification candidates among the top 4 of the linearized ranking ...
 REFINE_SHARE = 0.2  # ... that explain at least 20 % of what the best explains are refined by re-simulation
@@ -81,23 +51,26 @@ def split_test(ctx: Context, R: np.ndarray, shaft: str) -> tuple[str, float]:
     return ("real" if share > SPLIT_REAL else "none" if share < SPLIT_NONE else "unclear"), share
 
 
+def _runout_or_encoder(a: Trial, b: Trial) -> bool:
+    """``a`` and ``b`` are the same shaft's order 1, one through the drivetrain and one measurement-only."""
+    return (isinstance(a.cand, ShaftOrder) and isinstance(b.cand, ShaftOrder) and a.cand.order == b.cand.order == 1
+            and {a.cand.measurement_only, b.cand.measurement_only} == {True, False}
+            and a.cand.target.split("_")[0] == b.cand.target.split("_")[0])
+
+
 def _apply_split_test(ctx: Context, R: np.ndarray, trials: list[Trial]) -> None:
     """Reorder a close call between runout and encoder eccentricity of one shaft by :func:`split_test`."""
     if len(trials) < 2:
         return
     a, b = trials[0], trials[1]
-    names = {a.cand.name, b.cand.name}
-    if names != {"eccentricity", "encoder_eccentricity"} or a.cand.target.split("_")[0] != b.cand.target.split("_")[0]:
-        return
-    if b.dss < 0.9 * a.dss:
+    if not _runout_or_encoder(a, b) or b.dss < 0.9 * a.dss:
         return
     shaft = "input" if a.cand.target.startswith("input") else "output"
     verdict, share = split_test(ctx, R, shaft)
-    want = {"real": "eccentricity", "none": "encoder_eccentricity"}.get(verdict)
     for t in (a, b):
         t.info["split_test"] = {"verdict": verdict, "other_channel_share": share}
-    if want is not None:
-        if a.cand.name != want:
+    if verdict in ("real", "none"):
+        if a.cand.measurement_only != (verdict == "none"):
             trials[0], trials[1] = b, a
         trials[0].info["split_decided"] = True
 
@@ -124,7 +97,7 @@ def select_effects(ctx: Context, candidates: list, D: list[np.ndarray]) -> tuple
         trials = []
         for c in candidates:
             if (c.name, c.target) in done or repr(c) in screened or \
-                    (c.name == "torsional_mode" and any(k[0] == "torsional_mode" for k in done)):
+                    (c.exclusive and any(k[0] == c.name for k in done)):
                 continue
             try:
                 t = c.fit(ctx, R)
@@ -142,13 +115,13 @@ def select_effects(ctx: Context, candidates: list, D: list[np.ndarray]) -> tuple
         # the right one behind a look-alike, so every modification near the top is refined before ranking
         top = trials[0].dss
         for i, t in enumerate(trials[:REFINE_TOP]):
-            if isinstance(t.cand, Micro) and t.dss > 0.1 * floor and t.dss > REFINE_SHARE * top:
+            if isinstance(t.cand, FlankModification) and t.dss > 0.1 * floor and t.dss > REFINE_SHARE * top:
                 trials[i] = t.cand.refine(ctx, R, t)
         trials.sort(key=lambda t: -t.dss)
         _apply_split_test(ctx, R, trials)
         best = trials[0]
         thresh = max(s.kappa * ctx.noise_var * best.n_par, s.min_fraction * ss, s.min_total_fraction * float(R0 @ R0))
-        screened |= {repr(t.cand) for t in trials if t.cand.name == "torsional_mode"
+        screened |= {repr(t.cand) for t in trials if t.cand.expensive
                      and (t.dss < 0.25 * thresh or t.info.get("screened"))}
         step = {"residual_energy": ss, "threshold": thresh,
                 "ranking": [{"candidate": repr(t.cand), "effect": t.cand.name, "target": t.cand.target,
@@ -165,11 +138,10 @@ def select_effects(ctx: Context, candidates: list, D: list[np.ndarray]) -> tuple
         margin = max(2 * s.kappa * ctx.noise_var * best.n_par, s.ambiguity * best.dss)
         # flank modifications act through the same GMF lines; a look-alike modification within 10 % of the
         # best is not told apart by this data (the flank model's own error is of that order)
-        micro_margin = MICRO_AMBIGUITY * best.dss if isinstance(best.cand, Micro) else 0.0
+        micro_margin = MICRO_AMBIGUITY * best.dss if isinstance(best.cand, FlankModification) else 0.0
         rivals = [t for t in trials[1:] if (abs(best.dss - t.dss) < margin or (
-                  isinstance(t.cand, Micro) and best.dss - t.dss < micro_margin)) and t.key != best.key
-                  and not (best.info.get("split_decided") and {t.cand.name, best.cand.name} ==
-                           {"eccentricity", "encoder_eccentricity"})]
+                  isinstance(t.cand, FlankModification) and best.dss - t.dss < micro_margin)) and t.key != best.key
+                  and not (best.info.get("split_decided") and _runout_or_encoder(best, t))]
         best.info["rivals"] = [{"effect": t.cand.name, "target": t.cand.target or None,
                                 "explained_share": t.dss / ss, "suggested_run": suggestion(best.key, t.key)}
                                for t in rivals]
@@ -211,10 +183,7 @@ def joint_refit(ctx: Context, accepted: list[Trial], R0: np.ndarray, sweeps: int
         for i in non:
             others = sum((ctx.stack(u.contrib) for j2, u in enumerate(accepted) if j2 != i), zero)
             t = accepted[i]
-            new = t.cand.fit(ctx, R0 - others, x0=float(t.x[0])) if isinstance(t.cand, RigMode) else \
-                t.cand.fit(ctx, R0 - others)
-            if isinstance(new.cand, Micro):
-                new = new.cand.refine(ctx, R0 - others, new)
+            new = t.cand.refit(ctx, R0 - others, t)
             new.info = {**accepted[i].info, **new.info}
             accepted[i] = new
         if not non:
@@ -233,7 +202,7 @@ def verification_changes(ctx: Context, accepted: list[Trial], run: int = 0) -> t
     dpsi = 0.0
     # one mesh phase for all flank modifications: that of the one that explains most (a weaker one fitted
     # later estimates its own phase offset on a small residual; letting it override rotates every GMF line)
-    micros = [t for t in accepted if isinstance(t.cand, Micro)]
+    micros = [t for t in accepted if isinstance(t.cand, FlankModification)]
     lead = max(micros, key=lambda t: t.dss) if micros else None
     for t in accepted:
         ch = t.cand.changes(t.x, t.info, ctx, run)

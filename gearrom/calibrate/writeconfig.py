@@ -1,15 +1,11 @@
 """The closed loop's output a user keeps: a config that extends the diagnosed one with the found effects.
 
 :func:`diagnosed_config` turns the effects of a diagnosis (``gearrom.diagnosis/1`` summary) into
-TOML keys of the gear and rig sections, so that ``gearrom sweep OUT.toml`` runs the model with them:
-
-* ``eccentricity`` -> ``<gear>.microgeometry.runout_um`` (= 2 x amplitude) and ``runout_phase_deg``;
-* ``pitch_error`` -> ``<gear>.microgeometry.pitch_deviations_um`` (the displaced tooth and its
-  neighbour, signs of the ROM's convention: positive = tooth ahead in its gear's rotation);
-* ``tip_relief`` -> ``<gear>.microgeometry.tip_relief_um``; ``lead_crowning`` / ``helix_slope`` ->
-  the input gear's ``lead_crowning_um`` / ``helix_slope_um`` (the pair's values are the sums over
-  both gears); each added to what the nominal model used;
-* ``torsional_mode`` -> the scaled rig parameter (``gearrom.calibrate.simulator.ROM_TUNABLE``).
+TOML keys of the gear and rig sections, so that ``gearrom sweep OUT.toml`` runs the model with them.
+Each effect writes its own keys (:meth:`gearrom.calibrate.registry.EffectPlugin.write_config`, see the
+effect modules of :mod:`gearrom.calibrate.effects`): runout, pitch deviations (signs of the ROM's
+convention: positive = tooth ahead in its gear's rotation), flank modifications added to what the nominal
+model used, the scaled rig parameter of a re-tuned mode.
 
 A gear section that gets an effect is written whole (``enabled = true`` and every modification
 key): values the nominal model did not use (a disabled drawing micro-geometry) become 0, so that
@@ -29,7 +25,8 @@ import math
 from pathlib import Path
 
 
-from gearrom.calibrate.effects import GEARS
+import gearrom.calibrate.effects  # noqa: F401  (registers the built-in effects)
+from gearrom.calibrate.registry import GEARS, PLUGINS, ConfigDraft
 from gearrom.errors import CalibrationError
 
 MICRO_KEYS = ("tip_relief_um", "profile_crowning_um", "lead_crowning_um", "helix_slope_um", "profile_slope_um",
@@ -66,7 +63,6 @@ def diagnosed_config(summary: dict, config) -> tuple[dict, list[str]]:
     notes : list of str
         What was not written and why (header comments of the file).
     """
-    from gearrom.calibrate.simulator import ROM_TUNABLE
     from gearrom.config import load_config
 
     cfg = load_config(config, check=False)
@@ -74,66 +70,20 @@ def diagnosed_config(summary: dict, config) -> tuple[dict, list[str]]:
     ref = str(Path(config).resolve()) if Path(str(config)).suffix == ".toml" else str(config)
     doc: dict = {"extends": ref, "name": f"{cfg.name}-diagnosed",
                  "description": f"{cfg.name} with the effects found by gearrom diagnose"}
-    micro: dict[str, dict] = {}
-    notes: list[str] = []
-
-    def sec(gear: str) -> dict:
-        if gear not in micro:
-            micro[gear] = _micro_base(raw, gear, cfg.pair.da[GEARS.index(gear)])
-        return micro[gear]
-
     # the model's gear angles are the record's plus the mesh phase of the first run (see diagnose)
     z1, z2 = cfg.pair.z
     run0 = summary.get("runs", [{}])[0]
     psi_deg = (math.degrees(run0["mesh_phase_model_rad"]) if "mesh_phase_model_rad" in run0
                else float(run0.get("mesh_phase_deg") or 0.0))
-    shift_deg = {"input_gear": psi_deg, "output_gear": psi_deg * z1 / z2}
+    draft = ConfigDraft(doc=doc, raw=raw, pair=cfg.pair, micro={}, notes=[],
+                        shift_deg={"input_gear": psi_deg, "output_gear": psi_deg * z1 / z2},
+                        micro_base=lambda gear: _micro_base(raw, gear, cfg.pair.da[GEARS.index(gear)]))
     for e in summary.get("effects", []):
-        name, target, p = e["effect"], e.get("target"), e["parameters"]
-        if name == "eccentricity":
-            s = sec(target)
-            s["runout_um"] = 2.0 * float(p["amplitude_um"])
-            # diagnosis: a cos(theta + phi); ROM runout: e sin(theta + phase)
-            s["runout_phase_deg"] = float((p["phase_deg"] + 90.0 - shift_deg[target]) % 360.0)
-        elif name == "pitch_error":
-            gi = GEARS.index(target)
-            z = cfg.pair.z[gi]
-            # the ROM follows tooth k from its entry at gear angle 2 pi k / z, as the diagnosis' tooth model
-            k = int(round(p["tooth_index"] + shift_deg[target] * z / 360.0)) % z
-            a = -float(p["deviation_um"]) if gi == 0 else float(p["deviation_um"])  # TE sign of the ROM
-            s = sec(target)
-            fp = list(map(float, s.get("pitch_deviations_um", [0.0] * z)))
-            fp[k] += a
-            fp[(k + 1) % z] -= a
-            s["pitch_deviations_um"] = fp
-        elif name == "tip_relief":
-            s = sec(target)
-            s["tip_relief_um"] = s.get("tip_relief_um", 0.0) + float(p["amount_um"])
-            if p.get("start_diameter_mm") and "tip_relief_start_diameter_mm" not in s:
-                s["tip_relief_start_diameter_mm"] = float(p["start_diameter_mm"])
-        elif name in ("lead_crowning", "helix_slope"):
-            key = f"{name}_um"
-            sec("input_gear")[key] = sec("input_gear").get(key, 0.0) + float(p["amount_um"])
-        elif name == "torsional_mode":
-            param, scale = p.get("parameter") or e.get("parameter"), float(p["scale"])
-            path = ROM_TUNABLE.get(param, (None,))[0]
-            if path is None:
-                notes.append(f"torsional_mode: {param} x{scale:.4g} has no config key; not written")
-                continue
-            *heads, leaf = path.split(".")
-            node, src = doc, raw
-            for h in heads:
-                node = node.setdefault(h, {})
-                src = src.get(h, {})
-            if leaf not in src:
-                notes.append(f"torsional_mode: {path} is not in the config; not written")
-                continue
-            node[leaf] = float(src[leaf]) * scale
-        elif name == "encoder_eccentricity":
-            notes.append(f"{target}: eccentricity {p['amplitude_um']:.3g} um at {p['phase_deg']:.1f} deg is a "
-                         "measurement error, not part of the gear model; not written")
-        else:
-            raise CalibrationError(f"write config: effect {name!r} has no config mapping")
+        name = e["effect"]
+        if name not in PLUGINS:
+            raise CalibrationError(f"write config: effect {name!r} is not in the library; it has no config mapping")
+        PLUGINS[name].write_config(draft, e.get("target"), e["parameters"])
+    micro, notes = draft.micro, draft.notes
     for gear, s in micro.items():
         doc.setdefault(gear, {})["microgeometry"] = s
     return doc, notes

@@ -5,7 +5,9 @@ Layout per shaft (axial positions from the ``[rig.input_shaft]`` / ``[rig.output
     sensor_end -- ball_bearing -- gear -- needle_bearing -- clutch_end ==clutch== motor | brake
 
 Every station is 6-DOF (``ux, uy, uz, rx, ry, rz``); motor and brake rotors are 1-DOF (``rz``).
-DOFs: 10 x 6 + 2 = 62. Defaults below are the ``thesis-rig`` assumptions (see that config).
+DOFs: 10 x 6 + 2 = 62. Defaults below are the ``thesis-rig`` assumptions (see that config). Stations
+are named ``<shaft>.<station>`` (``in.gear``, ``out.clutch_end``...), ``motor`` and ``brake``; more
+bearings, disks and couplings go on them through ``[[rig.components]]`` (:mod:`gearrom.rom.catalog`).
 """
 from __future__ import annotations
 
@@ -16,8 +18,9 @@ from typing import Any
 
 from gearrom.config import GearConfig, load_config
 from gearrom.errors import ConfigError
-from gearrom.excitation.analytical import analytical_excitation
+from gearrom.excitation.sources import describe_excitation, load_excitation_source
 from gearrom.excitation.table import MeshExcitation
+from gearrom.rom.catalog import components_from_config
 from gearrom.rom.components import (BallBearing, Clutch, Disk, Encoder, Load, Motor, NeedleBearing, ShaftSegment,
                                     Station)
 from gearrom.rom.model import Drivetrain, MeshSpec
@@ -70,52 +73,18 @@ def rom_section(cfg: GearConfig) -> dict:
 
 
 def load_excitation(cfg: GearConfig, rom: dict, torque: float, progress: bool = False) -> MeshExcitation:
-    """The configured excitation.
-
-    ``"fe"``: the quasi-static FE tables of the pair (:func:`gearrom.excitation.fe.fe_excitation`,
-    the model of ``gearrom stiffness`` with the config's ``[fe]`` mesh) over the torque map
-    ``rom.excitation_torques_Nm`` (default :data:`gearrom.excitation.fe.TORQUE_MAP` times the
-    torque), computed on first use and cached by content (``progress``: a progress bar then);
-    ``"analytical"``: the ISO 6336-1 shaped table; else a MeshExcitation NetCDF path (relative to
-    the config).
-    """
-    src = rom["excitation"]
-    if src == "fe":
-        from gearrom.excitation.fe import fe_excitation, torque_map
-        from gearrom.fe.mesh2d import settings_from_section
-
-        settings, extra = settings_from_section(cfg.section("fe"), str(cfg.source or cfg.name))
-        torques = ([float(t) for t in rom["excitation_torques_Nm"]] or torque_map(torque)) + [float(torque)]
-        return fe_excitation(cfg.pair, torques, int(extra.get("positions", 64)), settings, progress=progress,
-                             config_name=cfg.name, config_digest=cfg.digest())
-    if src == "analytical":
-        torques = sorted({float(t) for t in rom["excitation_torques_Nm"]} | {float(torque)})
-        return analytical_excitation(cfg.pair, torques, n_theta=int(rom["n_theta"]), config_name=cfg.name,
-                                     config_digest=cfg.digest())
-    path = Path(src)
-    if not path.is_absolute() and cfg.source is not None:
-        path = Path(cfg.source).parent / path
-    if not path.exists():
-        raise ConfigError(f"{cfg.source}: rom.excitation file {str(path)!r} does not exist")
-    ex = MeshExcitation.load(path)
-    if ex.z1 != cfg.pair.z[0]:
-        raise ConfigError(f"{cfg.source}: rom.excitation has z1 = {ex.z1}, the pair has {cfg.pair.z[0]}")
-    return ex
+    """The configured excitation: the source ``[rom] excitation`` names (see :mod:`gearrom.excitation.sources`:
+    ``"fe"``, ``"analytical"``, a registered source, or a MeshExcitation NetCDF path relative to the config);
+    ``progress``: a progress bar while an FE table is computed."""
+    return load_excitation_source(cfg, rom, torque, progress=progress)
 
 
 def excitation_info(cfg: GearConfig, torque: float, progress: bool = False) -> dict[str, Any]:
     """Which excitation a model of ``cfg`` at ``torque`` [N m] runs on (computing an FE table here if
-    it is not cached): ``source`` ("fe", "analytical" or the table file), the FE ``cache_key``,
-    the table's ``torques_Nm`` and ``n_positions``."""
+    it is not cached): ``source`` (the source name or the table file), the table's ``torques_Nm`` and
+    ``n_theta``, and what the source adds (the FE ``cache_key`` and ``n_positions``)."""
     rom = rom_section(cfg)
-    ex = load_excitation(cfg, rom, torque, progress=progress)
-    src = rom["excitation"]
-    info: dict[str, Any] = {"source": src if src in ("fe", "analytical") else str(src),
-                            "torques_Nm": [float(t) for t in ex.torque], "n_theta": int(ex.n_theta)}
-    if src == "fe":
-        info["cache_key"] = ex.metadata.get("cache_key", "")
-        info["n_positions"] = int(ex.metadata.get("n_positions", ex.n_theta))
-    return info
+    return describe_excitation(rom["excitation"], load_excitation(cfg, rom, torque, progress=progress))
 
 
 def rig_parameters(config: GearConfig | str | Path) -> dict[str, Any]:
@@ -198,7 +167,7 @@ def build_rig(config: GearConfig | str | Path, torque_out: float | None = None,
     pair = cfg.pair
     rig = cfg.section("rig")
     rom = rom_section(cfg)
-    allowed = {"input_shaft", "output_shaft", *DEFAULTS}
+    allowed = {"input_shaft", "output_shaft", "components", *DEFAULTS}
     for key in rig:
         if key not in allowed:
             raise ConfigError(f"{src}: unknown key 'rig.{key}' (known: {', '.join(sorted(allowed))})")
@@ -249,6 +218,7 @@ def build_rig(config: GearConfig | str | Path, torque_out: float | None = None,
                        _num(mo, "speed_gain_Nms_per_rad", "rig.motor", src, allow_zero=True),
                        _num(mo, "integral_gain_Nm_per_rad", "rig.motor", src, allow_zero=True)))
     comps.append(Load("brake", _num(lo, "inertia_kg_m2", "rig.load", src)))
+    comps += components_from_config(rig.get("components", []), {s.name for s in stations}, src)
     torque = cfg.operating.torque_out if torque_out is None else float(torque_out)
     ex = excitation if excitation is not None else load_excitation(cfg, rom, torque)
     if rom["mesh_law"] not in ("load-dependent", "secant"):

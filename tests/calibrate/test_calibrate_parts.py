@@ -9,7 +9,7 @@ import pytest
 from scipy import signal
 
 from gearrom.calibrate import characterize as chz
-from gearrom.calibrate.effects import amp_phase
+from gearrom.calibrate.registry import amp_phase
 from gearrom.excitation.slices import MicroMods, SliceMicroModel
 from gearrom.calibrate.residual import detrend, estimate_mesh_phase, fit_lines, noise_rms
 from gearrom.calibrate.rig import TorsionalRig

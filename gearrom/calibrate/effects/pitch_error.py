@@ -1,4 +1,11 @@
-"""Tooth-local candidate ``pitch_error``: one displaced tooth, fitted on the pulse train it leaves.
+"""``pitch_error``: one displaced tooth of a gear, fitted on the pulse train it leaves.
+
+Model: the tooth stands ``deviation_um`` proud of its nominal position (single pitch deviations +f and
+-f on its two flanks' pitches; cumulative deviation f at that tooth). While it is in mesh it changes the
+TE as the static equilibrium of all pairs in contact gives (about ``deviation_um`` times its load share
+when small, saturating when the tooth leaves contact). ``tooth_index`` counts teeth from the gear angle
+0 of the record. Drawing (seed annex 11): f_p = 5 um, F_p = 16 um. Config:
+``<gear>.microgeometry.pitch_deviations_um``.
 
 The kinematic error pattern is the static TE change of :func:`gearrom.excitation.slices.tooth_te`
 (the tooth followed through its whole engagement, load shared with the other pairs, slice
@@ -25,9 +32,11 @@ import math
 import numpy as np
 from scipy.optimize import minimize_scalar
 
+import gearrom.calibrate.characterize as chz
 from gearrom.calibrate.fit import (Candidate, Context, Trial, detrend_like_data, shaft_angle, shaft_of,
                                    size_uncertainty)
 from gearrom.calibrate.model import N_TABLE
+from gearrom.calibrate.registry import GEARS, EffectPlugin, EffectSpec, register
 from gearrom.errors import GearromError
 from gearrom.excitation.slices import periodic_sample, stiffness_scale, tooth_te
 
@@ -35,6 +44,12 @@ UM = 1e-6
 N_SUB = 8  # trial tooth positions per pitch
 #: pulse area per unit deviation (1 in the linear range) below which the fitted size is a lower bound
 LOWER_BOUND_SLOPE = 0.25
+
+SPEC = EffectSpec(
+    "pitch_error", GEARS, "kinematic", {g: 16.0 for g in GEARS}, {g: 150.0 for g in GEARS},
+    "impulsive once-per-revolution content of one gear: a broad comb of that shaft's orders",
+    size_key="deviation_um", group="pitch_error",
+    separation="a longer record (a whole hunting-tooth period) separates the two gears' revolution patterns")
 
 
 class PitchError(Candidate):
@@ -176,3 +191,37 @@ class PitchError(Candidate):
         th = np.arange(N_TABLE) * 2 * math.pi / N_TABLE
         tab = periodic_sample(pat, th, info["position_rad"][run])
         return {"kinematic_in" if shaft_of(self.target) == "input" else "kinematic_out": tab - tab.mean()}
+
+
+class Plugin(EffectPlugin):
+    spec = SPEC
+    candidate = PitchError
+
+    def evidence(self, ctx, trial, D):
+        shaft = trial.cand.target.split("_")[0]
+        crest = chz.impulsiveness(ctx.models[0].run, D[0][0]).get(shaft)
+        txt = f"; impulsive once-per-rev pattern of the {shaft} gear (comb of its shaft orders"
+        return txt + (f", crest factor of the per-revolution average {crest:.2g})" if crest else ")")
+
+    def report_extra(self, params, info):
+        k, z = params["tooth_index"], info["z"]
+        return {"single_pitch_deviations_um": {str(k): params["deviation_um"], str((k + 1) % z): -params["deviation_um"]},
+                "cumulative_pitch_deviation_um": abs(params["deviation_um"])}
+
+    def explains_line(self, target, label):
+        return label.startswith(target.split("_")[0])
+
+    def write_config(self, draft, target, params):
+        gi = GEARS.index(target)
+        z = draft.pair.z[gi]
+        # the ROM follows tooth k from its entry at gear angle 2 pi k / z, as the diagnosis' tooth model
+        k = int(round(params["tooth_index"] + draft.shift_deg[target] * z / 360.0)) % z
+        a = -float(params["deviation_um"]) if gi == 0 else float(params["deviation_um"])  # TE sign of the ROM
+        s = draft.micro_section(target)
+        fp = list(map(float, s.get("pitch_deviations_um", [0.0] * z)))
+        fp[k] += a
+        fp[(k + 1) % z] -= a
+        s["pitch_deviations_um"] = fp
+
+
+register(Plugin())

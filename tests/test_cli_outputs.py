@@ -1,0 +1,33 @@
+"""The command line's JSON outputs for the bundled configs equal those saved from the code before the
+restructuring into plugins and registries (``tests/data/cli_baseline``, written by ``tests/cli_baseline.py``
+on the commit named in its ``baseline.json``), within numerical noise (relative 1e-6). Keys that depend on
+the machine, the time or the checkout (``cli_baseline.VOLATILE``) are not compared.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from cli_baseline import COMMANDS, differences, run
+
+BASELINE = Path(__file__).resolve().parent / "data" / "cli_baseline"
+
+
+@pytest.mark.parametrize("name", sorted(COMMANDS))
+def test_cli_output_equals_the_baseline(name, tmp_path):
+    if name.startswith(("campbell", "sweep", "diagnose", "validate")):
+        pytest.importorskip("exudyn")
+    saved = json.loads((BASELINE / f"{name}.json").read_text())
+    new = run(name, tmp_path)
+    diff = differences(new, saved)
+    assert not diff, f"{len(diff)} differences, first: {diff[:5]}"
+
+
+def test_comparison_sees_a_change_and_skips_volatile_keys():
+    base = {"a": [1.0, {"b": "x"}], "wall_s": 3.0, "n": 2}
+    assert differences({"a": [1.0 + 1e-9, {"b": "x"}], "wall_s": 9.0, "n": 2}, base) == []
+    assert differences({"a": [1.001, {"b": "x"}], "wall_s": 3.0, "n": 2}, base) == [".a[0]: 1.001 vs 1.0"]
+    assert differences({"a": [1.0, {"b": "y"}], "n": 2, "wall_s": 3.0}, base) == [".a[1].b: 'y' vs 'x'"]
+    assert differences({"a": [1.0], "n": 2}, base) == [".a: length 1 vs 2"]
