@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from gearrom.calibrate.registry import EffectPlugin
 from gearrom.calibrate.residual import fit_lines
 
 UM = 1e-6
@@ -42,3 +43,17 @@ def once_per_rev_evidence(ctx, t, D: list, moves_shafts: bool) -> str:
         verdict = {'real': 'the shaft moves', 'none': 'nothing moves', 'unclear': 'unclear'}[st['verdict']]
         txt += f"; split test: other channel {100 * st['other_channel_share']:.1f} % of the TE line -> {verdict}"
     return txt
+
+
+class ShaftOrderPlugin(EffectPlugin):
+    """The hooks of an effect fitted as a shaft-order line (:class:`~gearrom.calibrate.fit.ShaftOrder`): the
+    once-per-rev evidence (for order 1) and the residual line at its order of its shaft."""
+
+    def evidence(self, ctx, trial, D):
+        if trial.cand.order != 1:
+            return (f"; order {trial.cand.order} of the {trial.cand.target.split('_')[0]} shaft"
+                    + (", in one channel only: no shaft moves" if trial.cand.measurement_only else ""))
+        return once_per_rev_evidence(ctx, trial, D, moves_shafts=not trial.cand.measurement_only)
+
+    def explains_line(self, target, label):
+        return label == f"{target.split('_')[0]} order {self.candidate.order}"

@@ -217,17 +217,20 @@ class ShaftOrder(Candidate):
     """A line at order :attr:`order` of the target's shaft, fitted as a cos/sin pair per run (or one pair for
     runs recorded from a common index): the base of once-per-rev effects.
 
-    Subclasses give the per-run signals (te, u_in, u_out) of the unit cos or sin line (:meth:`unit_line`)
-    and say where the fitted line goes: a kinematic table through the drivetrain (:meth:`changes`) or a
-    measurement-only term (:attr:`measurement_only`).
+    A measurement-only line (:attr:`measurement_only`) sits in the TE and the encoder's own channel; any
+    other line is a kinematic error whose per-run signals (te, u_in, u_out) a subclass gives in
+    :meth:`unit_line` and which the verification re-simulates as a kinematic table (:meth:`changes`).
     """
 
     order = 1
     measurement_only = False
 
-    def unit_line(self, m: RunModel, shaft: str, basis: complex) -> np.ndarray:  # pragma: no cover - abstract
-        """Signals (3, n) of run ``m`` for the line ``Re(basis e^{i order theta})`` of 1 um."""
-        raise NotImplementedError
+    def unit_line(self, m: RunModel, shaft: str, basis: complex) -> np.ndarray:
+        """Signals (3, n) of run ``m`` for the line ``Re(basis e^{i order theta})`` of 1 um: a measurement-only
+        line by default (:func:`measured_line`); effects through the drivetrain override it."""
+        if not self.measurement_only:  # pragma: no cover - a subclass contract
+            raise NotImplementedError(f"{type(self).__name__} must define unit_line")
+        return measured_line(m, shaft, basis, self.order)
 
     def _cols(self, ctx: Context) -> list:
         shaft = shaft_of(self.target)

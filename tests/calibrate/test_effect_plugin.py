@@ -2,8 +2,8 @@
 
 The toy is ``encoder_ovality``: an oval encoder disc, a twice-per-revolution angle error of one encoder
 (measurement only). Everything it needs is in this file: its spec, its candidate fit (order 2 of the
-shaft in the TE and the encoder's own channel), its evidence text and its config mapping; ``register``
-adds it to the library. The data: the torsional rig model simulated clean, the input encoder's angle
+shaft in the TE and the encoder's own channel), its config mapping, and the shaft-order plugin hooks
+(evidence, the residual line it explains); ``register`` adds it to the library. The data: the torsional rig model simulated clean, the input encoder's angle
 given a twice-per-rev error of known size and phase before the encoder emulation (as
 :func:`gearrom.calibrate.synthetic.make_run` does for once-per-rev encoder errors). The reference is
 the injected error itself.
@@ -15,9 +15,10 @@ import math
 import numpy as np
 import pytest
 
-from gearrom.calibrate import (LIBRARY, PLUGINS, EffectPlugin, EffectSpec, FitSettings, RunConditions, TorsionalRig,
+from gearrom.calibrate import (LIBRARY, PLUGINS, EffectSpec, FitSettings, RunConditions, TorsionalRig,
                                diagnose, register, unregister)
-from gearrom.calibrate.fit import ShaftOrder, measured_line
+from gearrom.calibrate.evidence import ShaftOrderPlugin
+from gearrom.calibrate.fit import ShaftOrder
 from gearrom.calibrate.registry import ENCODERS
 from gearrom.calibrate.writeconfig import diagnosed_config
 from gearrom.signal import emulate_edges, write_measurement
@@ -36,19 +37,10 @@ class Ovality(ShaftOrder):
     order = 2
     measurement_only = True
 
-    def unit_line(self, m, shaft, basis):
-        return measured_line(m, shaft, basis, self.order)
 
-
-class OvalityPlugin(EffectPlugin):
+class OvalityPlugin(ShaftOrderPlugin):
     spec = SPEC
     candidate = Ovality
-
-    def evidence(self, ctx, trial, D):
-        return "; twice per revolution of one encoder, no shaft moves"
-
-    def explains_line(self, target, label):
-        return label == f"{target.split('_')[0]} order 2"
 
     def write_config(self, draft, target, params):
         draft.notes.append(f"{target}: ovality {params['amplitude_um']:.3g} um is a measurement error; not written")
@@ -101,7 +93,7 @@ def test_registered_toy_effect_is_found_sized_and_removed(with_toy):
     assert (first["effect"], first["target"]) == ("encoder_ovality", "input_encoder")
     assert first["parameters"]["amplitude_um"] == pytest.approx(AMP_UM, rel=0.1)
     assert first["within_tolerance"] and first["drawing_tolerance_um"] == 5.0
-    assert "twice per revolution" in first["evidence"]
+    assert "order 2 of the input shaft, in one channel only" in first["evidence"]
     assert s["error_after_rms_um"] <= 0.5 * s["error_before_rms_um"]
     assert not any(u.get("integer_order") == "input order 2" and "at_lines_of" not in u for u in s["unexplained"])
     doc, notes = diagnosed_config(s, CONFIG)

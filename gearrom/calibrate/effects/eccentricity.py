@@ -7,9 +7,9 @@ Config: ``<gear>.microgeometry.runout_um`` (= 2 x amplitude) and ``runout_phase_
 """
 from __future__ import annotations
 
-from gearrom.calibrate.evidence import once_per_rev_evidence
+from gearrom.calibrate.evidence import ShaftOrderPlugin
 from gearrom.calibrate.fit import ShaftOrder
-from gearrom.calibrate.registry import GEARS, EffectPlugin, EffectSpec, register
+from gearrom.calibrate.registry import GEARS, EffectSpec, register
 
 SPEC = EffectSpec(
     "eccentricity", GEARS, "kinematic", {g: 11.0 for g in GEARS}, {g: 100.0 for g in GEARS},
@@ -28,15 +28,9 @@ class Eccentricity(ShaftOrder):
         return m.response(shaft, {1: basis * 1e-6})
 
 
-class Plugin(EffectPlugin):
+class Plugin(ShaftOrderPlugin):
     spec = SPEC
     candidate = Eccentricity
-
-    def evidence(self, ctx, trial, D):
-        return once_per_rev_evidence(ctx, trial, D, moves_shafts=True)
-
-    def explains_line(self, target, label):
-        return label == f"{target.split('_')[0]} order 1"
 
     def write_config(self, draft, target, params):
         s = draft.micro_section(target)

@@ -7,9 +7,9 @@ it is not written into a config.
 from __future__ import annotations
 
 from gearrom.calibrate.effects.eccentricity import SPEC as GEAR_RUNOUT
-from gearrom.calibrate.evidence import once_per_rev_evidence
-from gearrom.calibrate.fit import ShaftOrder, measured_line
-from gearrom.calibrate.registry import ENCODERS, EffectPlugin, EffectSpec, register
+from gearrom.calibrate.evidence import ShaftOrderPlugin
+from gearrom.calibrate.fit import ShaftOrder
+from gearrom.calibrate.registry import ENCODERS, EffectSpec, register
 
 SPEC = EffectSpec(
     "encoder_eccentricity", ENCODERS, "measurement", {e: 20.0 for e in ENCODERS}, {e: 150.0 for e in ENCODERS},
@@ -23,19 +23,10 @@ class EncoderEccentricity(ShaftOrder):
 
     measurement_only = True
 
-    def unit_line(self, m, shaft, basis):
-        return measured_line(m, shaft, basis, self.order)
 
-
-class Plugin(EffectPlugin):
+class Plugin(ShaftOrderPlugin):
     spec = SPEC
     candidate = EncoderEccentricity
-
-    def evidence(self, ctx, trial, D):
-        return once_per_rev_evidence(ctx, trial, D, moves_shafts=False)
-
-    def explains_line(self, target, label):
-        return label == f"{target.split('_')[0]} order 1"
 
     def write_config(self, draft, target, params):
         draft.notes.append(f"{target}: eccentricity {params['amplitude_um']:.3g} um at {params['phase_deg']:.1f} deg "
