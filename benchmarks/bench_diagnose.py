@@ -2,7 +2,7 @@
 2 cores), plus the acceptance matrix of issue 6 on data made by the exudyn ROM (heavier than the suite:
 more speeds, the slow cases).
 
-Data: :func:`gearrom.calibrate.synthetic.make_rom_run` (the ROM of ``thesis-rig`` with its own effect
+Data: :func:`gearrom.testing.synthetic.make_rom_run` (the ROM of ``thesis-rig`` with its own effect
 models, encoder emulation to edges CSV, random start/disc angles, non-integer record lengths); the
 diagnosis uses the config's nominal ROM. Reference values: the injected sizes, phases converted from the
 ROM's absolute angles to the first-edge convention of the diagnosis.
@@ -23,7 +23,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))  # benchmarks/_common.p
 from _common import peak_memory_MB, write_result  # noqa: E402
 
 from gearrom.calibrate import FitSettings, MicroMods, RomSimulator, diagnose  # noqa: E402
-from gearrom.calibrate.synthetic import (RomInjected, encoder_phase_deg, make_rom_run, rom_model,  # noqa: E402
+from gearrom.testing.synthetic import (RomInjected, encoder_phase_deg, make_rom_run, rom_model,  # noqa: E402
                                          rom_runout_phase_deg)
 from gearrom.rom import LoadRipple, PitchDeviations, Runout  # noqa: E402
 

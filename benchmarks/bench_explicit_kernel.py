@@ -90,7 +90,7 @@ def measure_helical(nsteps: int = 400, integration: str = "reduced") -> dict:
 
     from gearrom.config import load_config
     from gearrom.fe.explicit.gearpair import GearPairSetup
-    from gearrom.fe.explicit.helical3d import helical_meshes, helical_pair_model
+    from gearrom.fe.explicit.helicalpair import helical_meshes, helical_pair_model
 
     spec = importlib.util.spec_from_file_location(
         "run_explicit_helical", Path(__file__).resolve().parents[1] / "validation" / "run_explicit_helical.py")

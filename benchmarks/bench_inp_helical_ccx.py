@@ -31,7 +31,7 @@ from _common import peak_memory_MB, write_result  # noqa: E402
 
 from gearrom.config import load_config  # noqa: E402
 from gearrom.fe.export3d import calculix_crosscheck  # noqa: E402
-from gearrom.fe.helical3d import Helical3DLTCA, build_helical3d  # noqa: E402
+from gearrom.fe.ltca_helical import Helical3DLTCA, build_helical3d  # noqa: E402
 from gearrom.fe.mesh3d import Mesh3DSettings  # noqa: E402
 
 

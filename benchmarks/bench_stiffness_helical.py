@@ -16,7 +16,7 @@ import warnings
 from _common import RESULTS, peak_memory_MB, write_result
 
 from gearrom.config import load_config
-from gearrom.fe.helical import HelicalSliceLTCA, plot_contact_pattern
+from gearrom.fe.ltca_slices import HelicalSliceLTCA, plot_contact_pattern
 from gearrom.fe.iso6336 import mesh_stiffness
 from gearrom.fe.sweep import build_ltca, mesh_cycle
 

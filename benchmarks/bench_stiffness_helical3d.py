@@ -23,7 +23,7 @@ import numpy as np  # noqa: E402
 from _common import RESULTS, peak_memory_MB, write_result  # noqa: E402
 
 from gearrom.config import load_config  # noqa: E402
-from gearrom.fe.helical import plot_contact_pattern  # noqa: E402
+from gearrom.fe.ltca_slices import plot_contact_pattern  # noqa: E402
 from gearrom.fe.iso6336 import mesh_stiffness  # noqa: E402
 from gearrom.fe.sweep import build_ltca, mesh_cycle  # noqa: E402
 

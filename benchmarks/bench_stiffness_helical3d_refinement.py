@@ -24,7 +24,7 @@ from _common import peak_memory_MB, write_result  # noqa: E402
 
 from gearrom.config import load_config  # noqa: E402
 from gearrom.fe.compliance3d import cached_compliance3d  # noqa: E402
-from gearrom.fe.helical3d import Helical3DLTCA  # noqa: E402
+from gearrom.fe.ltca_helical import Helical3DLTCA  # noqa: E402
 from gearrom.fe.iso6336 import mesh_stiffness  # noqa: E402
 from gearrom.fe.mesh3d import Mesh3DSettings  # noqa: E402
 from gearrom.fe.sweep import mesh_cycle  # noqa: E402

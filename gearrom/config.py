@@ -230,6 +230,17 @@ class GearConfig:
     source: Path | None = None
     warnings: tuple[str, ...] = field(default=())
 
+    @property
+    def reference(self) -> str:
+        """How a config file refers to this one (``extends``): the bundled name, else the resolved file path
+        (the name when it was built from a dict without a file)."""
+        if self.source is None:
+            return self.name
+        src = Path(self.source).resolve()
+        if src == _bundled_path(src.stem).resolve():
+            return src.stem
+        return str(src)
+
     def section(self, name: str) -> dict[str, Any]:
         """A copy of the stage section ``name`` (empty dict when absent)."""
         return copy.deepcopy(dict(self.raw.get(name, {})))
@@ -524,6 +535,23 @@ def from_dict(data: Mapping[str, Any], source: Path | None = None, check: bool =
         raw=copy.deepcopy(dict(data)), description=str(data.get("description", "")), source=source,
         warnings=tuple(caught),
     )
+
+
+def as_config(config: GearConfig | str | Path, *, check: bool = False, quiet: bool = True) -> GearConfig:
+    """``config`` itself when it is a loaded :class:`GearConfig`, else :func:`load_config` of the name or path.
+
+    Library functions take either and resolve a name once through this function; ``quiet`` silences the
+    warnings of the load (the command line reports them where it resolves the name).
+    """
+    if isinstance(config, GearConfig):
+        return config
+    if not quiet:
+        return load_config(config, check=check)
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return load_config(config, check=check)
 
 
 def load_config(name_or_path: str | Path, check: bool = True) -> GearConfig:

@@ -18,7 +18,7 @@ This is a long job (about half an hour per speed on one core): run it in the bac
 
 History: until the open-edge rule of the 3D contact (gearrom.fe.explicit.contact.contact_forces_3d) the
 contact of this model created energy in bursts (a 2000 rpm run ended with a 262 J balance error); the
-cause was slave nodes passing the cut ends of the master flanks (see the helical3d module notes).
+cause was slave nodes passing the cut ends of the master flanks (see the gearrom.fe.explicit.helicalpair module notes).
 """
 from __future__ import annotations
 
@@ -32,7 +32,7 @@ import numpy as np
 
 from gearrom.config import load_config
 from gearrom.fe.explicit.gearpair import GearPairSetup
-from gearrom.fe.explicit.helical3d import helical_meshes, run_helical_pair
+from gearrom.fe.explicit.helicalpair import helical_meshes, run_helical_pair
 from gearrom.fe.explicit.result import ENERGY_NAMES
 
 HERE = Path(__file__).resolve().parent

@@ -5,24 +5,27 @@ geometry only, no explicit FE run) writes validation/rom_vs_fe_spur_same_discret
 the stored records: the dynamic runs spur_1250rpm / spur_2000rpm, the slow run spur_60rpm and the
 quasi-static explicit solves spur_static_points.json (120 N m; the sub-window needs J = 152, 160,
 ..., 528) and spur_static_points_60Nm.json (J = 152, 160, ..., 272), written by
-validation/run_explicit_static.py. See :mod:`gearrom.validation.same_discretization`.
+validation/run_explicit_static.py. See validation/studies/same_discretization.py.
 """
 from __future__ import annotations
 
 import json
 import logging
+import sys
 import math
 from pathlib import Path
 
 import numpy as np
 
 from gearrom.config import load_config
-from gearrom.validation import same_discretization as sd
 from gearrom.validation.compare import steady_window
 from gearrom.validation.explicit_table import (CUTOFF_ORDER, explicit_qs_excitation, explicit_scaled_excitation,
                                                slow_run_deflection)
 from gearrom.validation.pair_rom import mesh_excitation
 from gearrom.validation.report import load_fe_record, output_inertia
+
+sys.path.insert(0, str(Path(__file__).resolve().parent / "studies"))
+import same_discretization as sd  # noqa: E402  (validation/studies: a study, not a library module)
 
 HERE = Path(__file__).resolve().parent
 OUT = HERE / "rom_vs_fe_spur_same_discretization.json"

@@ -24,7 +24,7 @@ import numpy as np
 from gearrom.config import load_config
 from gearrom.fe.explicit.driver import prepare, solve
 from gearrom.fe.explicit.gearpair import GearPairSetup, transmission_error
-from gearrom.fe.explicit.helical3d import helical_meshes, helical_pair_model
+from gearrom.fe.explicit.helicalpair import helical_meshes, helical_pair_model
 from run_explicit_helical import BODY, GRADING, HOURGLASS, LAYERS, MASS_SCALING_DT, OUTLINE
 
 HERE = Path(__file__).resolve().parent

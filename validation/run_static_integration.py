@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import logging
+import sys
 import os
 import platform
 from pathlib import Path
@@ -18,8 +19,10 @@ from pathlib import Path
 import numpy as np
 
 from gearrom.config import load_config
-from gearrom.validation import same_discretization as sd
 from gearrom.validation.pair_rom import mesh_excitation
+
+sys.path.insert(0, str(Path(__file__).resolve().parent / "studies"))
+import same_discretization as sd  # noqa: E402  (validation/studies: a study, not a library module)
 
 HERE = Path(__file__).resolve().parent
 OUT = HERE / "static_integration_spur.json"

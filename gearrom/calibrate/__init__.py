@@ -9,23 +9,22 @@ re-simulation -> :mod:`.characterize` (orders, sidebands, fixed vs tracking, une
 
 Models: :class:`~gearrom.calibrate.simulator.Simulator` protocol; the exudyn ROM through
 :class:`~gearrom.calibrate.simulator.RomSimulator` when it has the hooks, else the torsional rig
-model :class:`~gearrom.calibrate.rig.TorsionalRig`. Micro-geometry changes through the quasi-static FE
+model :class:`~gearrom.calibrate.torsional.TorsionalRig`. Micro-geometry changes through the quasi-static FE
 tables without an FE solve (:class:`~gearrom.calibrate.microfe.FEMicroModel`; the analytical
-:class:`~gearrom.calibrate.microgeom.SliceMicroModel` only as an explicit fallback).
+:class:`~gearrom.calibrate.micromodel.SliceMicroModel` only as an explicit fallback).
 """
 import gearrom.calibrate.effects  # noqa: F401  (registers the built-in effects)
 from gearrom.calibrate.diagnose import diagnose
 from gearrom.calibrate.registry import LIBRARY, PLUGINS, EffectPlugin, EffectSpec, check_name, register, unregister
 from gearrom.calibrate.fit import FitSettings
 from gearrom.calibrate.microfe import FEMicroModel, with_micro
-from gearrom.calibrate.microgeom import MicroGeometryModel
+from gearrom.calibrate.micromodel import MicroGeometryModel
 from gearrom.excitation.slices import MicroMods, SliceMicroModel
 from gearrom.calibrate.report import DiagnosisResult
-from gearrom.calibrate.rig import RigParams, TorsionalRig
+from gearrom.calibrate.torsional import RigParams, TorsionalRig
 from gearrom.calibrate.simulator import (ModelChanges, RomSimulator, RunConditions, SimHistory, Simulator,
                                          default_simulator)
-from gearrom.calibrate.synthetic import Injected, make_run
 
-__all__ = ["LIBRARY", "PLUGINS", "DiagnosisResult", "EffectPlugin", "EffectSpec", "FEMicroModel", "FitSettings", "Injected", "MicroGeometryModel",
+__all__ = ["LIBRARY", "PLUGINS", "DiagnosisResult", "EffectPlugin", "EffectSpec", "FEMicroModel", "FitSettings", "MicroGeometryModel",
            "MicroMods", "ModelChanges", "RigParams", "RomSimulator", "RunConditions", "SimHistory", "SliceMicroModel",
-           "Simulator", "TorsionalRig", "check_name", "default_simulator", "diagnose", "make_run", "register", "unregister", "with_micro"]
+           "Simulator", "TorsionalRig", "check_name", "default_simulator", "diagnose", "register", "unregister", "with_micro"]

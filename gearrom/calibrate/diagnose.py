@@ -74,19 +74,21 @@ def diagnose(config: str | Path, measurements: Sequence[str | Path], *, simulato
     """
     if not measurements:
         raise CalibrationError("diagnose needs at least one measurement file")
-    from gearrom.config import load_config
+    from gearrom.config import GearConfig, as_config
 
     settings = settings or FitSettings()
-    pair = load_config(config, check=False).pair
-    mesh = GearMeshInfo.from_config(config)
+    cfg = as_config(config)  # loaded once; every part below takes the object
+    label = cfg.name if isinstance(config, GearConfig) else str(config)
+    pair = cfg.pair
+    mesh = GearMeshInfo.from_config(cfg, name=label)
     if read_settings is None or te_settings is None:
         from gearrom.signal.config import settings_from_config
 
-        te_cfg, read_cfg = settings_from_config(config)
+        te_cfg, read_cfg = settings_from_config(cfg)
         read_settings = read_settings or read_cfg
         te_settings = te_settings or te_cfg
     runs = [load_run(p, mesh, torque_out_Nm, read_settings, te_settings) for p in measurements]
-    sim = simulator or default_simulator(config)
+    sim = simulator or default_simulator(cfg)
     models = [build_run_model(sim, r) for r in runs]
     micro_model = micro_model or getattr(sim, "micro_model", None) or FEMicroModel()
     micro_nominal = getattr(sim, "micro", None) or MicroMods.from_pair(pair)
@@ -95,7 +97,7 @@ def diagnose(config: str | Path, measurements: Sequence[str | Path], *, simulato
     candidates = make_candidates(ctx)
     accepted, steps = select_effects(ctx, candidates, D)
     after = verify(ctx, accepted)
-    res = _assemble(ctx, config, sim, D, accepted, steps, after)
+    res = _assemble(ctx, label, sim, D, accepted, steps, after)
     wanted = settings.candidates or tuple(LIBRARY)
     missing = sorted(set(wanted) - {c.name for c in candidates})
     res.summary["not_evaluated"] = [{"effect": n, "reason": PLUGINS[n].not_evaluated} for n in missing]

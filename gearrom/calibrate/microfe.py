@@ -1,9 +1,9 @@
 """Micro-geometry through the quasi-static FE tables, without a new FE solve, and its hand-off to a nominal table.
 
-:class:`FEMicroModel` is the default :class:`~gearrom.calibrate.microgeom.MicroGeometryModel` of the
+:class:`FEMicroModel` is the default :class:`~gearrom.calibrate.micromodel.MicroGeometryModel` of the
 diagnosis. The flank compliances of both gears come from :func:`gearrom.fe.sweep.build_ltca` (FE
 solved once per gear geometry and cached on disk by the FE package); a new micro-geometry only
-changes the initial gaps, so each :class:`~gearrom.calibrate.microgeom.MicroMods` costs one contact
+changes the initial gaps, so each :class:`~gearrom.calibrate.micromodel.MicroMods` costs one contact
 sweep over a mesh period (about 0.04 s spur, 0.4 s helical slices per torque) and no FE solve. Results
 are cached in memory and on disk, keyed by a hash of the pair, the modifications, the torques and
 the settings. Helical pairs go through whatever LTCA ``build_ltca`` returns for them (uncoupled
@@ -12,7 +12,7 @@ pairs use the plane model in ``SPUR_SLICES`` face slices (identical unless a lea
 the plane model alone cannot see, varies the gap over the face width).
 
 When the FE cache cannot be built (no gmsh, a geometry the mesher refuses), the analytical
-:class:`~gearrom.calibrate.microgeom.SliceMicroModel` is used instead, with a warning.
+:class:`~gearrom.calibrate.micromodel.SliceMicroModel` is used instead, with a warning.
 
 :func:`with_micro` applies a micro-geometry to the *nominal* table of a simulator: the change of
 STE and the relative change of stiffness between the modified and the nominal flanks, both from the
@@ -47,7 +47,7 @@ def _pair_key(pair) -> str:
 
 def start_diameter(pair, i: int, d_ca: float | None) -> float:
     """Tip-relief start diameter of gear ``i``, m (None: 2/3 of the active profile from its start, the
-    rule of :class:`~gearrom.calibrate.microgeom.SliceMicroModel`)."""
+    rule of :class:`~gearrom.calibrate.micromodel.SliceMicroModel`)."""
     if d_ca is not None:
         return float(d_ca)
     rho = pair.roll_start_active[i] + 2.0 / 3.0 * (pair.roll_tip[i] - pair.roll_start_active[i])
@@ -84,13 +84,12 @@ class FEMicroModel:
     cache_dir : str, Path, bool or None
         Directory of the result cache (``True``: ``<FE cache>/../calibrate``; ``None``/``False``: memory only).
     fallback : bool
-        Use :class:`~gearrom.calibrate.microgeom.SliceMicroModel` with a warning when the FE LTCA cannot be built.
+        Use :class:`~gearrom.calibrate.micromodel.SliceMicroModel` with a warning when the FE LTCA cannot be built.
     helical_model : {"slices", "3d"}
         LTCA of helical pairs (``build_ltca(..., helical_model=...)``). Default: the plane-strain slices
-        (FE cache ~20 s per gear, ~0.2 s per modification). ``"3d"``: the 3D FE model, the better physics
-        for lead modifications (cold FE of both gears ~47 s on an idle 2-core machine, ~0.5 s per
-        modification at 24 positions; benchmarks/results/bench_stiffness_helical3d.json); not yet the
-        default because the helical acceptance cases of the diagnosis were made and checked with slices.
+        (a faster FE cache and modification). ``"3d"``: the 3D FE model, the better physics for lead
+        modifications (costs in benchmarks/results/bench_stiffness_helical3d.json); the helical
+        acceptance cases of the diagnosis are checked with the slices.
     """
 
     n_positions: int = 24
@@ -121,7 +120,7 @@ class FEMicroModel:
                     kw = {"helical_model": self.helical_model} if pair.is_helical else {}
                     lt = build_ltca(pair, **kw)  # the config's pair: shares the FE cache with `gearrom stiffness`
                     if not pair.is_helical:  # lead modifications vary over the face: slices of the plane model
-                        from gearrom.fe.helical import HelicalSliceLTCA
+                        from gearrom.fe.ltca_slices import HelicalSliceLTCA
 
                         lt = HelicalSliceLTCA(pair, lt.c, window=lt.window, tol=lt.tol, n_slices=SPUR_SLICES)
                     _LTCA[key] = lt
@@ -165,7 +164,7 @@ class FEMicroModel:
     def theta_shift(self, pair) -> float:
         """Input angle by which this model's table origin lags the analytical/slice convention, rad.
 
-        The analytical tables (and :class:`~gearrom.calibrate.microgeom.SliceMicroModel`) put the entry of
+        The analytical tables (and :class:`~gearrom.calibrate.micromodel.SliceMicroModel`) put the entry of
         pair 0 at one face end at theta = 0; the FE LTCA of a helical pair puts it at the mid-face slice,
         i.e. the analytical angle is ``theta_FE + b tan(beta_b) / (2 r_b1)`` (taken from the LTCA's strip
         shifts, so the 3D model's convention is followed too). Zero for spur pairs.

@@ -8,6 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
+from gearrom.spectral import spectrum
+
 UM = 1e-6
 
 
@@ -123,10 +125,8 @@ class DiagnosisResult:
                 ylim=(max(1e-4, 0.3 * r["noise_rms_um"] * math.sqrt(2 / max(tr.t_s.size, 1))), None))
         ax2.legend(fontsize=8)
         for y, lab in ((tr.measured - tr.model_before, "residual before"), (tr.measured - tr.model_after, "residual after")):
-            n = y.size
-            w = np.hanning(n)
-            a = 2 * np.abs(np.fft.rfft((y - y.mean()) * w)) / w.sum()
-            ax3.semilogy(np.fft.rfftfreq(n, 1 / tr.fs_hz), a / UM + 1e-9, lw=0.7, label=lab)
+            sp = spectrum(y - y.mean(), 1 / tr.fs_hz, "hann")
+            ax3.semilogy(sp.x, sp.amplitude / UM + 1e-9, lw=0.7, label=lab)
         ax3.set(xlabel="frequency [Hz]", ylabel="amplitude [um]", title="residual spectra (Hann, coherent gain corrected)",
                 xlim=(0, 0.4 * tr.fs_hz))
         ax3.legend(fontsize=8)

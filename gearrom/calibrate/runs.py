@@ -1,7 +1,7 @@
 """What a simulator of the diagnosis takes and gives: run conditions, model changes, angle histories.
 
 :class:`Simulator` is the contract the diagnosis talks to (:mod:`gearrom.calibrate.simulator` has the
-exudyn ROM adapter and the choice of simulator, :mod:`gearrom.calibrate.rig` the torsional rig model).
+exudyn ROM adapter and the choice of simulator, :mod:`gearrom.calibrate.torsional` the torsional rig model).
 
 Conventions of :class:`ModelChanges`
 ------------------------------------

@@ -4,7 +4,7 @@ The diagnosis needs one thing from a dynamic model: shaft angle histories at the
 run condition, with optional *model changes* (the effects of the library). :class:`Simulator` is
 that contract. Two implementations:
 
-* :class:`gearrom.calibrate.rig.TorsionalRig`: a small torsional drivetrain (numba RK4), always
+* :class:`gearrom.calibrate.torsional.TorsionalRig`: a small torsional drivetrain (numba RK4), always
   available, fast, with assumed rig values; it can re-tune rig parameters (``torsional_mode``).
 * :class:`RomSimulator`: adapter to the exudyn ROM ``gearrom.rom.simulate_run``: the
   project's drivetrain model built from the configuration's ``[rig]`` description.
@@ -23,7 +23,7 @@ import math
 import numpy as np
 
 from gearrom.calibrate.microfe import with_micro
-from gearrom.calibrate.rig import TorsionalRig
+from gearrom.calibrate.torsional import TorsionalRig
 from gearrom.calibrate.runs import ModelChanges, RunConditions, SimHistory, Simulator
 from gearrom.excitation.slices import MicroMods
 from gearrom.errors import CalibrationError
@@ -84,9 +84,9 @@ class RomSimulator:
         self.settle_s = round(settle_s * sample_rate_hz) / sample_rate_hz
         self._models: dict = {}
         self._modes: dict = {}
-        from gearrom.config import load_config
+        from gearrom.config import as_config
 
-        self.pair = load_config(config, check=False).pair
+        self.pair = as_config(config).pair
         self.micro = MicroMods.from_pair(self.pair)
 
     def tunable(self) -> dict[str, str]:
@@ -130,13 +130,9 @@ class RomSimulator:
         return self._models[key]
 
     def _rom_cfg(self):
-        import warnings
+        from gearrom.config import as_config
 
-        from gearrom.config import load_config
-
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            return load_config(self.config, check=False)
+        return as_config(self.config)
 
     def simulate(self, run: RunConditions, changes: ModelChanges | None = None) -> SimHistory:
         from gearrom.rom import Effects, ExtraTE, LoadRipple
@@ -183,10 +179,10 @@ def default_simulator(config, prefer: str = "auto") -> Simulator:
         (fast, with assumed rig values).
     """
     if prefer == "auto":
-        from gearrom.config import load_config
+        from gearrom.config import as_config
 
         try:
-            has_rig = bool(load_config(config, check=False).section("rig"))
+            has_rig = bool(as_config(config).section("rig"))
         except Exception:  # noqa: BLE001  (a bad config is reported by the simulator that loads it)
             has_rig = False
         if has_rig:

@@ -63,11 +63,11 @@ def diagnosed_config(summary: dict, config) -> tuple[dict, list[str]]:
     notes : list of str
         What was not written and why (header comments of the file).
     """
-    from gearrom.config import load_config
+    from gearrom.config import as_config
 
-    cfg = load_config(config, check=False)
+    cfg = as_config(config)
     raw = cfg.raw
-    ref = str(Path(config).resolve()) if Path(str(config)).suffix == ".toml" else str(config)
+    ref = cfg.reference
     doc: dict = {"extends": ref, "name": f"{cfg.name}-diagnosed",
                  "description": f"{cfg.name} with the effects found by gearrom diagnose"}
     # the model's gear angles are the record's plus the mesh phase of the first run (see diagnose)

@@ -129,7 +129,7 @@ class SliceMicroModel:
                 k_tab[it, i] = kk[m & (gg < d)].sum()
                 e_tab[it, i] = d
                 share[it, i] = load.reshape(n_pairs, -1).sum(axis=1) / ft
-        meta = {"source": "gearrom.calibrate.microgeom.SliceMicroModel (thin slices, ISO 6336-1 level)",
+        meta = {"source": "gearrom.calibrate.micromodel.SliceMicroModel (thin slices, ISO 6336-1 level)",
                 "theta_origin": "pair 0 enters contact (start of the path of contact, face end y=0) at theta = 0",
                 "tip_relief_um": [x / UM for x in mods.tip_relief], "lead_crowning_um": mods.lead_crowning / UM,
                 "helix_slope_um": mods.helix_slope / UM, "n_slices": self.n_slices}
@@ -220,7 +220,7 @@ def _gaps(pair: GearPair, s: np.ndarray, y: np.ndarray, mods: MicroMods) -> np.n
 # is in mesh, i.e. over about ``eps_gamma`` mesh periods per revolution of its gear. Its contact lines
 # cross the face like those of every other tooth; while it is in mesh it shares the load with the
 # other pairs through their stiffnesses. The thin-slice model of
-# :class:`~gearrom.calibrate.microgeom.SliceMicroModel` gives the slices of every pair in contact; the
+# :class:`~gearrom.calibrate.micromodel.SliceMicroModel` gives the slices of every pair in contact; the
 # displaced tooth adds its deviation to the gap of each of its slices and the static equilibrium
 # ``sum k max(delta - gap, 0) = F_t`` is solved again. The result is non-linear in the deviation:
 # a tooth set back by more than the static deflection of its neighbours leaves contact (the TE change

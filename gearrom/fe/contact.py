@@ -27,6 +27,24 @@ class ContactSolution:
     iterations: int
 
 
+def activate_penetrating(h: np.ndarray, C: np.ndarray, idx: np.ndarray, fa: np.ndarray, delta: float,
+                         active: np.ndarray, tol: float, iterations: int) -> tuple[ContactSolution | None, float]:
+    """One check of an active-set iteration: forces ``fa`` on the active points ``idx`` and approach ``delta``.
+
+    Returns the solution when no inactive point penetrates by more than ``tol`` [m]; otherwise adds the
+    penetrating points to ``active`` (in place) and returns ``(None, largest penetration [m])``.
+    """
+    f = np.zeros(h.size)
+    f[idx] = fa
+    gap = h + C @ f - delta
+    pen = np.flatnonzero((gap < -tol) & ~active)
+    if pen.size == 0:
+        gap[idx] = 0.0
+        return ContactSolution(f=f, delta=delta, gap=gap, iterations=iterations), 0.0
+    active[pen] = True
+    return None, float(-gap[pen].min())
+
+
 def solve_contact(C: np.ndarray, h: np.ndarray, force: float, *, tol: float = 1e-12, max_iter: int = 200,
                   where: str = "") -> ContactSolution:
     """Solve the contact problem (see module doc).
@@ -57,7 +75,7 @@ def solve_contact(C: np.ndarray, h: np.ndarray, force: float, *, tol: float = 1e
         raise SolverError(f"contact force must be positive{where}, got {force!r}")
     active = np.zeros(n, bool)
     active[np.argmin(h)] = True
-    f = np.zeros(n)
+    np.zeros(n)
     delta = float(h.min())
     worst = np.inf
     for it in range(1, max_iter + 1):
@@ -80,15 +98,9 @@ def solve_contact(C: np.ndarray, h: np.ndarray, force: float, *, tol: float = 1e
             if not active.any():
                 active[idx[np.argmax(fa)]] = True
             continue
-        f = np.zeros(n)
-        f[idx] = fa
-        gap = h + C @ f - delta
-        pen = np.flatnonzero((gap < -tol) & ~active)
-        if pen.size == 0:
-            gap[idx] = 0.0
-            return ContactSolution(f=f, delta=delta, gap=gap, iterations=it)
-        worst = float(-gap[pen].min())
-        active[pen] = True
+        sol, worst = activate_penetrating(h, C, idx, fa, delta, active, tol, it)
+        if sol is not None:
+            return sol
     raise SolverError(
         f"contact active set did not converge{where} after {max_iter} iterations "
         f"(largest penetration {worst * 1e6:.3g} um, {int(active.sum())} active of {n})"

@@ -49,7 +49,7 @@ def export_vtu(ltca, theta: float, torque: float, path: str | Path, settings: Me
     pair = ltca.pair
     if pair.is_helical:
         from gearrom.errors import ModelError
-        from gearrom.fe.helical3d import Helical3DLTCA
+        from gearrom.fe.ltca_helical import Helical3DLTCA
 
         if not isinstance(ltca, Helical3DLTCA):
             raise ModelError("export_vtu: the helical slice model has no single mesh; use the 3D model "

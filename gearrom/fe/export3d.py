@@ -1,7 +1,7 @@
 """Abaqus/CalculiX input deck of the 3D helical model at one mesh position (mm, N, MPa).
 
 The deck holds the two sector meshes of :func:`gearrom.fe.mesh3d.sector_mesh` (the meshes of the
-3D LTCA's compliances, :class:`gearrom.fe.helical3d.Helical3DLTCA`) placed in the global frame of
+3D LTCA's compliances, :class:`gearrom.fe.ltca_helical.Helical3DLTCA`) placed in the global frame of
 :func:`gearrom.fe.export._frames` (gear 1 centre at the origin, gear 2 centre at (0, a_w, 0), both
 axes +z, face widths centred on z = 0: the frame of :class:`gearrom.fe.loaded3d.LoadedPair3D`):
 
@@ -16,7 +16,7 @@ axes +z, face widths centred on z = 0: the frame of :class:`gearrom.fe.loaded3d.
   prescribed (displacement control: no rigid-body mode before contact closes);
 * element-face surfaces (``*SURFACE, TYPE=ELEMENT``) on the right flanks (involute part, whole
   face width) of the teeth that can touch at that position (pair ``p``: tooth ``-p`` of gear 1,
-  tooth ``p`` of gear 2, :class:`~gearrom.fe.helical3d.Helical3DLTCA`), a ``*CONTACT PAIR``
+  tooth ``p`` of gear 2, :class:`~gearrom.fe.ltca_helical.Helical3DLTCA`), a ``*CONTACT PAIR``
   (face-to-face penalty by default, CalculiX's advice for quadratic elements; node-to-surface on
   request) with a linear pressure-overclosure ``*SURFACE BEHAVIOR``;
 * linear-geometry ``*STATIC`` steps (contact closure by a prescribed rotation, then the moment,
@@ -102,7 +102,7 @@ def contact_pairs(pair, theta: float, margin: float = 0.1e-3) -> list[int]:
     """Tooth pairs whose contact line lies on the active flanks somewhere over the face width at ``theta``.
 
     Pair ``p`` touches the z-section at input roll ``L1 = L1_SAP + r_b1 (theta - twist_1(z)) + p p_bt``
-    (:class:`~gearrom.fe.helical3d.Helical3DLTCA`); it is kept if that range over the common face
+    (:class:`~gearrom.fe.ltca_helical.Helical3DLTCA`); it is kept if that range over the common face
     width meets the active roll range of gear 1 widened by ``margin`` [m].
     """
     from gearrom.geometry.profile import twist
@@ -288,7 +288,7 @@ def calculix_crosscheck(pair, workdir: str | Path, settings: Mesh3DSettings | No
                         torque: float = 120.0, threads: int = 2, cache_dir: str | Path | None = None, **deck) -> dict:
     """Static TE of the deck run by CalculiX against the 3D LTCA on the same mesh (one position).
 
-    The LTCA (:func:`~gearrom.fe.helical3d.build_helical3d`, compliances cached in ``cache_dir``,
+    The LTCA (:func:`~gearrom.fe.ltca_helical.build_helical3d`, compliances cached in ``cache_dir``,
     default ``workdir/cache``) gives the STE at ``torque`` [N m] and ``theta_frac`` of the mesh
     period; the deck prescribes that output rotation (displacement control), ``ccx`` runs it in
     ``workdir`` on ``threads`` threads, and the LTCA is solved again at the torque ccx transmitted.
@@ -301,7 +301,7 @@ def calculix_crosscheck(pair, workdir: str | Path, settings: Mesh3DSettings | No
     import time
 
     from gearrom.errors import SolverError
-    from gearrom.fe.helical3d import build_helical3d
+    from gearrom.fe.ltca_helical import build_helical3d
 
     if shutil.which("ccx") is None:
         raise SolverError("CalculiX (ccx, Debian package calculix-ccx) is not installed")

@@ -34,7 +34,7 @@ def _rotz(phi: float) -> np.ndarray:
 
 
 class LoadedPair3D:
-    """Both gears of a :class:`~gearrom.fe.helical3d.Helical3DLTCA` as FE bodies (see module doc).
+    """Both gears of a :class:`~gearrom.fe.ltca_helical.Helical3DLTCA` as FE bodies (see module doc).
 
     Parameters
     ----------

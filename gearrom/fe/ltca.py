@@ -10,7 +10,7 @@ input flank has roll length ``L1 = L1_SAP + r_b1 theta + p p_bt``, on the output
 Per position and torque the contact problem of :mod:`gearrom.fe.contact` is solved with the gap
 of the two involutes measured along the line of action (second-order drop from the common
 tangent with the involute curvature integrated exactly), plus the micro-geometry of
-:mod:`gearrom.fe.microgeo`. The approach ``delta`` is the loaded static TE along the transverse
+:mod:`gearrom.fe.flankgaps`. The approach ``delta`` is the loaded static TE along the transverse
 line of action (positive when the output lags); the unloaded kinematic TE is the smallest gap.
 
 Tip edges are rounded (:mod:`gearrom.fe.tipedge`): beyond the end of the involute, premature and
@@ -34,7 +34,7 @@ import numpy as np
 from gearrom.errors import SolverError
 from gearrom.fe.compliance import FlankCompliance
 from gearrom.fe.contact import solve_contact
-from gearrom.fe.microgeo import needs_3d, pitch_removal, profile_removal, runout_removal, tip_limit
+from gearrom.fe.flankgaps import needs_3d, pitch_removal, profile_removal, runout_removal, tip_limit
 from gearrom.fe.tipedge import FlankArc, InvoluteFrame
 
 log = logging.getLogger(__name__)

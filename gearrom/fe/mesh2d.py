@@ -142,19 +142,35 @@ def gmsh_session(name: str):
             gmsh.finalize()
 
 
-def extract_mesh(gmsh, named: dict[str, list[int]], bore_curves: list[int]) -> Mesh2D:
-    """The generated 2D triangle mesh of the open gmsh model as a checked :class:`Mesh2D`: unused nodes
-    dropped, triangles counter-clockwise, boundary edges of each named curve group and the bore nodes."""
+def surface_elements(gmsh, etype: int, what: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Nodes (x, y) and 2D elements of the open gmsh model: ``(points, connectivity, tag -> row index)``.
+
+    ``etype``: the gmsh element type every 2D element must have (2: 3-node triangle, 3: 4-node quad);
+    ``what`` names the mesh in the error.
+
+    Raises
+    ------
+    MeshError
+        gmsh produced another element type.
+    """
     tags, coords, _ = gmsh.model.mesh.getNodes()
     pts = coords.reshape(-1, 3)[:, :2]
     index = np.full(int(tags.max()) + 1, -1, dtype=np.int64)
     index[tags.astype(np.int64)] = np.arange(tags.size)
-    tri = []
-    for etype, _, nodes in zip(*gmsh.model.mesh.getElements(2)):
-        if etype != 2:
-            raise MeshError(f"gmsh produced element type {etype}; only 3-node triangles are supported")
-        tri.append(index[nodes.astype(np.int64)].reshape(-1, 3))
-    tri = np.vstack(tri)
+    n_nodes = {2: 3, 3: 4}[etype]
+    conn = []
+    for et, _, nodes in zip(*gmsh.model.mesh.getElements(2)):
+        if et != etype:
+            raise MeshError(f"gmsh produced element type {et}{what}; expected {n_nodes}-node "
+                            f"{'triangles' if etype == 2 else 'quads'}")
+        conn.append(index[nodes.astype(np.int64)].reshape(-1, n_nodes))
+    return pts, np.vstack(conn), index
+
+
+def extract_mesh(gmsh, named: dict[str, list[int]], bore_curves: list[int]) -> Mesh2D:
+    """The generated 2D triangle mesh of the open gmsh model as a checked :class:`Mesh2D`: unused nodes
+    dropped, triangles counter-clockwise, boundary edges of each named curve group and the bore nodes."""
+    pts, tri, index = surface_elements(gmsh, 2, "")
     used = np.unique(tri)
     remap = np.full(pts.shape[0], -1, dtype=np.int64)
     remap[used] = np.arange(used.size)

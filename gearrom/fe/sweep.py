@@ -70,7 +70,7 @@ class StiffnessResult:
         Largest contact pressure [Pa].
     pattern : ndarray (m, n, n_z, n_roll), optional
         Helical pairs: the contact pattern, largest contact pressure [Pa] per bin of face width x
-        input-gear roll length (profile), per torque and position (:func:`gearrom.fe.helical3d.contact_pattern`).
+        input-gear roll length (profile), per torque and position (:func:`gearrom.fe.ltca_helical.contact_pattern`).
     pattern_z, pattern_roll : ndarray, optional
         Bin edges of ``pattern``: axial position [m] (0 = mid-face) and input roll length [m].
     """
@@ -240,9 +240,9 @@ def build_ltca(pair, settings: MeshSettings | None = None, cache_dir: str | Path
     ``cache_dir=True`` uses :func:`default_cache_dir`, ``None``/``False`` disables the cache. Both
     gears share one :class:`gearrom.fe.cache.FECache`: a damaged entry is reported, deleted and
     recomputed; an unwritable directory is reported once and the run continues without storing.
-    Helical pairs: ``helical_model="3d"`` (default) gives :class:`gearrom.fe.helical3d.Helical3DLTCA`
+    Helical pairs: ``helical_model="3d"`` (default) gives :class:`gearrom.fe.ltca_helical.Helical3DLTCA`
     (3D FE compliances of each gear, mesh ``settings3d``: :class:`gearrom.fe.mesh3d.Mesh3DSettings`);
-    ``"slices"`` the uncoupled transverse slices :class:`gearrom.fe.helical.HelicalSliceLTCA` (an
+    ``"slices"`` the uncoupled transverse slices :class:`gearrom.fe.ltca_slices.HelicalSliceLTCA` (an
     approximation, with a warning).
     """
     if cache_dir is True:
@@ -253,14 +253,14 @@ def build_ltca(pair, settings: MeshSettings | None = None, cache_dir: str | Path
 
         raise ModelError(f"helical_model must be '3d' or 'slices', got {helical_model!r}")
     if pair.is_helical and helical_model == "3d":
-        from gearrom.fe.helical3d import build_helical3d
+        from gearrom.fe.ltca_helical import build_helical3d
 
         return build_helical3d(pair, settings3d, cache, n_slices=n_slices)
     comps = tuple(cached_compliance(pair, i, settings, cache_dir=cache) for i in range(2))
     if pair.is_helical:
         import warnings
 
-        from gearrom.fe.helical import HelicalSliceLTCA
+        from gearrom.fe.ltca_slices import HelicalSliceLTCA
 
         warnings.warn("helical pair: uncoupled transverse slices (plane-strain sections), not a 3D FE model; "
                       "end effects and lead-modification sensitivity are over-estimated", stacklevel=2)
@@ -272,7 +272,7 @@ def mesh_cycle(ltca: SpurLTCA, torques, n_positions: int = 64, mesh_index: int =
                metadata: dict | None = None, progress: bool = False) -> StiffnessResult:
     """Solve ``n_positions`` uniform positions of one mesh period at each output torque [N m]
     (``progress``: a progress bar over the positions)."""
-    from gearrom.fe.helical3d import contact_pattern  # helical results only; imported once, not per position
+    from gearrom.fe.ltca_helical import contact_pattern  # helical results only; imported once, not per position
 
     torques = np.sort(np.atleast_1d(np.asarray(torques, float)))
     n = int(n_positions)

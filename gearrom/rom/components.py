@@ -12,8 +12,8 @@ axial ``uz``, tilting ``rx, ry`` and torsional ``rz`` DOFs, so the helical mesh 
 axial component and its moments; every other shaft station (sensor end, ball bearing, needle
 bearing, clutch end) has the same 6 DOFs; motor and brake rotors have ``rz`` only (62 DOFs in all).
 
-Element formulations (stated, as the issue asks)
-------------------------------------------------
+Element formulations
+--------------------
 * :class:`ShaftSegment`: Euler-Bernoulli beam in two bending planes (cubic Hermite stiffness),
   axial bar and torsion ``GJ/L``; solid circular section; mass lumped half to each end station
   (translational mass, polar and diametral inertia of each half). Damping ``beta K`` (stiffness

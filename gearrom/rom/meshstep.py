@@ -197,3 +197,47 @@ def rk44_settings(n_steps: int, t_end: float, write_period: float):
     s.solution.sensors.writePeriod = write_period
     return s
 
+
+
+def reduced_system(red, y0: np.ndarray, v0: np.ndarray):
+    """An exudyn system of a reduced drivetrain: one node of the reduced coordinates (initial state ``y0``,
+    ``v0``), one GenericODE2 object with the reduced matrices and constant load, and a sensor of the
+    coordinates stored in memory. Returns ``(system container, mbs, node, object, sensor)``."""
+    import exudyn as exu
+    from exudyn.itemInterface import NodeGenericODE2, ObjectGenericODE2, SensorNode
+
+    SC = exu.SystemContainer()
+    mbs = SC.AddSystem()
+    r = len(y0)
+    node = mbs.AddNode(NodeGenericODE2(referenceCoordinates=[0.0] * r, initialCoordinates=list(y0),
+                                       initialCoordinates_t=list(v0), numberOfODE2Coordinates=r))
+    body = mbs.AddObject(ObjectGenericODE2(nodeNumbers=[node], massMatrix=red.M, stiffnessMatrix=red.K,
+                                           dampingMatrix=red.D, forceVector=list(red.F)))
+    sens = mbs.AddSensor(SensorNode(nodeNumber=node, outputVariableType=exu.OutputVariableType.Coordinates,
+                                    storeInternal=True, writeToFile=False))
+    return SC, mbs, node, body, sens
+
+
+def solve_rk44(mbs, sensor: int, n_steps: int, t_end: float, fs: float, what: str) -> tuple[np.ndarray, float, float]:
+    """Assemble and integrate ``mbs`` with fixed-step RK44; the stored data of ``sensor``, wall and CPU time [s].
+
+    Raises
+    ------
+    SolverError
+        The solver stops or the coordinates are not finite (``what`` names the run in the message).
+    """
+    import time
+
+    import exudyn as exu
+
+    from gearrom.errors import SolverError
+
+    mbs.Assemble()
+    s = rk44_settings(n_steps, t_end, 1.0 / fs)
+    t0, c0 = time.perf_counter(), time.process_time()
+    ok = mbs.SolveDynamic(s, solverType=exu.DynamicSolverType.RK44)
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    raw = mbs.GetSensorStoredData(sensor)
+    if not ok or not np.all(np.isfinite(raw)):
+        raise SolverError(f"{what} failed (h = {t_end / n_steps:.3g} s); try a smaller rom.max_step_us")
+    return raw, wall, cpu

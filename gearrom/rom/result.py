@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from gearrom.errors import ModelError
+from gearrom.spectral import line_amplitudes
 from gearrom.excitation.table import netcdf_engine, write_netcdf
 
 
@@ -105,14 +106,8 @@ class DynamicRun:
     def gmf_amplitudes(self, side: str = "sensor", orders: int = 3) -> np.ndarray:
         """Zero-to-peak DTE amplitudes [m] at mesh orders 1..``orders`` (DFT at the exact frequencies)."""
         z1 = self.metadata.get("z1")
-        x = self.dte_at(side) - np.mean(self.dte_at(side))
         f_mesh = z1 * self.rpm_in / 60.0
-        t = self.time
-        out = []
-        for m in range(1, orders + 1):
-            ph = np.exp(-2j * np.pi * m * f_mesh * t)
-            out.append(2 * abs(np.mean(x * ph)))
-        return np.array(out)
+        return line_amplitudes(self.dte_at(side), 2 * np.pi * f_mesh * self.time, range(1, orders + 1))
 
     # ------------------------------------------------------------------ I/O
     def to_dataset(self):

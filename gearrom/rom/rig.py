@@ -12,11 +12,10 @@ bearings, disks and couplings go on them through ``[[rig.components]]`` (:mod:`g
 from __future__ import annotations
 
 import math
-import warnings
 from pathlib import Path
 from typing import Any
 
-from gearrom.config import GearConfig, load_config
+from gearrom.config import GearConfig, as_config
 from gearrom.errors import ConfigError
 from gearrom.excitation.sources import describe_excitation, load_excitation_source
 from gearrom.excitation.table import MeshExcitation
@@ -134,11 +133,7 @@ def with_overrides(config: GearConfig | str | Path, overrides) -> GearConfig:
 
 
 def _load(config) -> GearConfig:
-    if isinstance(config, GearConfig):
-        return config
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        return load_config(config)
+    return as_config(config, check=True)
 
 
 def build_rig(config: GearConfig | str | Path, torque_out: float | None = None,

@@ -21,16 +21,15 @@ from __future__ import annotations
 
 import logging
 import math
-import time as _time
 from pathlib import Path
 
 import numpy as np
 
 from gearrom.config import GearConfig
-from gearrom.errors import ModelError, SolverError
+from gearrom.errors import ModelError
 from gearrom.rom.components import RZ
 from gearrom.rom.mesh import Effects, MeshLaw
-from gearrom.rom.meshstep import MeshStepper, rk44_settings
+from gearrom.rom.meshstep import MeshStepper, reduced_system, solve_rk44
 from gearrom.rom.model import Drivetrain
 from gearrom.rom.reduce import periodic_initial_state, reduce
 from gearrom.rom.result import DynamicRun
@@ -102,8 +101,7 @@ def simulate_run(config_or_model, rpm_in: float, torque_out_Nm: float | None = N
         The integration diverged.
     """
     import exudyn as exu
-    from exudyn.itemInterface import (MarkerNodeCoordinate, NodeGenericODE2, ObjectGenericODE2, SensorMarker,
-                                      SensorNode)
+    from exudyn.itemInterface import MarkerNodeCoordinate, SensorMarker
 
     if not (rpm_in > 0 and math.isfinite(rpm_in)):
         raise ModelError(f"rpm_in must be positive, got {rpm_in!r}")
@@ -138,13 +136,7 @@ def simulate_run(config_or_model, rpm_in: float, torque_out_Nm: float | None = N
     e_offset = law.evaluate(theta0, theta0 * z1 / z2)[1] - law.base(theta0)[1]
     y0, v0 = periodic_initial_state(red, model, rpm_in, torque, law.k_grid, law.e_grid, theta0, e_offset=e_offset)
 
-    SC = exu.SystemContainer()
-    mbs = SC.AddSystem()
-    r = len(y0)
-    node = mbs.AddNode(NodeGenericODE2(referenceCoordinates=[0.0] * r, initialCoordinates=list(y0),
-                                       initialCoordinates_t=list(v0), numberOfODE2Coordinates=r))
-    mbs.AddObject(ObjectGenericODE2(nodeNumbers=[node], massMatrix=red.M, stiffnessMatrix=red.K,
-                                    dampingMatrix=red.D, forceVector=list(red.F)))
+    SC, mbs, node, _, sens = reduced_system(red, y0, v0)
     m_brake = None
     if effects.load_ripple:
         m_brake = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=node, coordinate=red.i_brake))
@@ -158,18 +150,9 @@ def simulate_run(config_or_model, rpm_in: float, torque_out_Nm: float | None = N
     mesh = MeshStepper(mbs, node, red.i_delta, law, c_mesh, backlash, h, n_steps, angles, m_brake, period)
     m_delta = mesh.marker
     mbs.SetPreStepUserFunction(mesh.pre_step)
-    sens = mbs.AddSensor(SensorNode(nodeNumber=node, outputVariableType=exu.OutputVariableType.Coordinates,
-                                    storeInternal=True, writeToFile=False))
     sens_v = mbs.AddSensor(SensorMarker(markerNumber=m_delta, outputVariableType=exu.OutputVariableType.Coordinates_t,
                                         storeInternal=True, writeToFile=False))
-    mbs.Assemble()
-    s = rk44_settings(n_steps, t_end, 1.0 / fs)
-    t0, c0 = _time.perf_counter(), _time.process_time()
-    ok = mbs.SolveDynamic(s, solverType=exu.DynamicSolverType.RK44)
-    wall, cpu = _time.perf_counter() - t0, _time.process_time() - c0
-    raw = mbs.GetSensorStoredData(sens)
-    if not ok or not np.all(np.isfinite(raw)):
-        raise SolverError(f"time integration failed at {rpm_in} rpm (h = {h:.3g} s); try a smaller rom.max_step_us")
+    raw, wall, cpu = solve_rk44(mbs, sens, n_steps, t_end, fs, f"time integration at {rpm_in} rpm")
     sel = (raw[:, 0] >= settle - 0.5 / fs) & (raw[:, 0] < t_end - 0.5 / fs)
     tt, yy = raw[sel, 0], raw[sel, 1:]
     vv = mbs.GetSensorStoredData(sens_v)[sel, 1]

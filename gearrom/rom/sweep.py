@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from gearrom.errors import ConfigError, ModelError
+from gearrom.spectral import spectrum
 from gearrom.excitation.table import netcdf_engine
 
 if TYPE_CHECKING:
@@ -365,9 +366,8 @@ class SweepResult:
     def spectrum(self, channel: str = "dte_sensor") -> tuple[np.ndarray, np.ndarray]:
         """``(orders, amplitude)``: zero-to-peak amplitude [m] vs input-shaft order, shape (n_rpm, n_bins)."""
         x = self.data[channel]
-        x = x - x.mean(axis=1, keepdims=True)
         n = x.shape[1]
-        amp = 2 * np.abs(np.fft.rfft(x, axis=1)) / n
+        amp = spectrum(x - x.mean(axis=1, keepdims=True), 1.0).amplitude
         n_mesh = n / self.samples_per_mesh
         orders = np.arange(amp.shape[1]) * self.z[0] / n_mesh
         return orders, amp
@@ -501,11 +501,9 @@ def run_sweep(config_ref: str | Path, rpms, out_dir: str | Path, *, torque_out: 
     ModelError
         A file the config refers to changed while the speeds ran (the new results are discarded).
     """
-    from gearrom.config import load_config
+    from gearrom.config import as_config
 
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        cfg = load_config(config_ref)
+    cfg = as_config(config_ref, check=True)
     ref = str(cfg.source) if cfg.source else str(config_ref)
     torque = cfg.operating.torque_out if torque_out is None else float(torque_out)
     if not (math.isfinite(torque) and torque > 0):

@@ -151,7 +151,7 @@ def settings_from_config(name_or_path: str | Path, overrides: Mapping[str, Any] 
     option_names : mapping, optional
         ``key -> command-line option`` named in errors caused by an override.
     """
-    from gearrom.config import load_config
+    from gearrom.config import as_config
 
-    cfg = load_config(name_or_path, check=False)
+    cfg = as_config(name_or_path)
     return settings_from_section(cfg.section("signal"), str(cfg.source or name_or_path), overrides, option_names)

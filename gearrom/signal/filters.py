@@ -92,20 +92,7 @@ def bessel_lowpass(x: np.ndarray, fs_hz: float, cutoff_hz: float, order: int = 4
 def highpass(x: np.ndarray, fs_hz: float, cutoff_hz: float, order: int = 2, *, zero_phase: bool = True) -> np.ndarray:
     """Butterworth high-pass (drift removal), cut-off at -3 dB of one pass.
 
-    Parameters
-    ----------
-    x : ndarray
-        Signal sampled at ``fs_hz``.
-    fs_hz, cutoff_hz : float
-        Sampling rate and cut-off, Hz.
-    order : int
-        Filter order.
-    zero_phase : bool
-        Forward-backward (sosfiltfilt) instead of causal (sosfilt).
-
-    Returns
-    -------
-    ndarray
+    ``x``, ``fs_hz``, ``cutoff_hz``, ``order`` and ``zero_phase`` are as in :func:`bessel_lowpass`.
     """
     _check_fc(cutoff_hz, fs_hz, "high-pass")
     sos = signal.butter(order, cutoff_hz, btype="highpass", output="sos", fs=fs_hz)

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Literal
 
 import numpy as np
@@ -163,13 +162,17 @@ class GearMeshInfo:
                 raise ConfigError(f"GearMeshInfo: {k}={v!r} must be a radius in m (0 < r < 10)")
 
     @classmethod
-    def from_config(cls, name_or_path: str | Path = DEFAULT_CONFIG) -> GearMeshInfo:
-        """Take teeth, base and pitch radii from a gear configuration (:func:`gearrom.config.load_config`)."""
-        from gearrom.config import load_config
+    def from_config(cls, name_or_path=DEFAULT_CONFIG, name: str | None = None) -> GearMeshInfo:
+        """Take teeth, base and pitch radii from a gear configuration (a loaded ``GearConfig``, a bundled
+        name or a path: :func:`gearrom.config.as_config`)."""
+        from gearrom.config import GearConfig, as_config
 
-        pair = load_config(name_or_path, check=False).pair
+        cfg = as_config(name_or_path)
+        pair = cfg.pair
         (z1, z2), (db1, db2), (d1, d2) = pair.z, pair.db, pair.d
-        return cls(int(z1), int(z2), db1 / 2, db2 / 2, d1 / 2, d2 / 2, name=str(name_or_path))
+        if name is None:
+            name = cfg.name if isinstance(name_or_path, GearConfig) else str(name_or_path)
+        return cls(int(z1), int(z2), db1 / 2, db2 / 2, d1 / 2, d2 / 2, name=name)
 
     @property
     def ratio(self) -> float:

@@ -1,11 +1,6 @@
-"""Spectra of TE: amplitude spectra in time and angle (orders), synchronous averages, GMF labels.
+"""Spectra of measured TE: amplitude spectra in time and angle (orders), synchronous averages, GMF labels.
 
-Amplitude correction. A one-sided amplitude spectrum of a windowed record is
-``A_k = 2 |X_k| / sum(w)`` (``|X_0| / sum(w)`` at DC and at Nyquist), i.e. the DFT is divided by
-the window's coherent gain ``CG = sum(w)/N`` times N. A sine that falls on a bin then shows its
-true amplitude with any window; between bins the rectangular window loses up to 36 %, Hann up
-to 15 % and flat-top less than 0.1 % (scalloping). Phases refer to the first sample
-(cosine convention: ``x = A cos(2*pi*f*t + phase)``).
+The spectrum object and its amplitude scaling are those of :mod:`gearrom.spectral`.
 
 Order spectra resample the TE onto a uniform grid of the input shaft angle (cubic spline), so
 speed fluctuations do not smear the mesh orders. Over a whole number of input revolutions every
@@ -17,73 +12,12 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
-from typing import Literal
 
 import numpy as np
-from scipy import signal
 from scipy.interpolate import CubicSpline
 
 from gearrom.errors import MeasurementError
-
-
-@dataclass(frozen=True)
-class Spectrum:
-    """One-sided amplitude spectrum.
-
-    Attributes
-    ----------
-    x : ndarray
-        Frequencies in Hz (``unit == "Hz"``) or orders of the input shaft (``unit == "order"``).
-    amplitude : ndarray
-        Amplitude in the unit of the signal (m for TE).
-    phase_rad : ndarray
-        Phase, rad (cosine convention, relative to the first sample / angle zero).
-    unit : {"Hz", "order"}
-    window : str
-        Window name; the amplitude is corrected by the window's coherent gain.
-    n : int
-        Number of samples transformed.
-    """
-
-    x: np.ndarray
-    amplitude: np.ndarray
-    phase_rad: np.ndarray
-    unit: Literal["Hz", "order"]
-    window: str
-    n: int
-
-    @property
-    def amplitude_um(self) -> np.ndarray:
-        """Amplitude in um (for a signal in m)."""
-        return self.amplitude * 1e6
-
-    @property
-    def resolution(self) -> float:
-        """Bin spacing (Hz or orders)."""
-        return float(self.x[1] - self.x[0])
-
-    def at(self, x0: float, search_bins: int = 0) -> tuple[float, float, float]:
-        """Amplitude, phase and position of the bin nearest ``x0`` (largest within +-``search_bins``)."""
-        k = int(round(x0 / self.resolution))
-        if not 0 <= k < self.x.size:
-            return float("nan"), float("nan"), float(x0)
-        lo, hi = max(0, k - search_bins), min(self.x.size, k + search_bins + 1)
-        j = lo + int(np.argmax(self.amplitude[lo:hi]))
-        return float(self.amplitude[j]), float(self.phase_rad[j]), float(self.x[j])
-
-
-def _one_sided(x: np.ndarray, window: str, spacing: float, unit: str) -> Spectrum:
-    n = x.size
-    if n < 2:
-        raise MeasurementError(f"spectrum needs at least 2 samples, got {n}")
-    w = np.ones(n) if window in ("rect", "boxcar", "rectangular") else signal.get_window(window, n)
-    X = np.fft.rfft(x * w)
-    amp = np.abs(X) / w.sum()
-    amp[1:] *= 2.0
-    if n % 2 == 0:
-        amp[-1] /= 2.0
-    f = np.fft.rfftfreq(n, d=spacing)
-    return Spectrum(x=f, amplitude=amp, phase_rad=np.angle(X), unit=unit, window=window, n=n)
+from gearrom.spectral import Spectrum, spectrum
 
 
 def amplitude_spectrum(x: np.ndarray, fs_hz: float, window: str = "hann") -> Spectrum:
@@ -103,7 +37,7 @@ def amplitude_spectrum(x: np.ndarray, fs_hz: float, window: str = "hann") -> Spe
     Spectrum
         Frequencies in Hz, amplitudes corrected by the coherent gain of the window.
     """
-    return _one_sided(np.asarray(x, float) - np.mean(x), window, 1.0 / fs_hz, "Hz")
+    return spectrum(np.asarray(x, float) - np.mean(x), 1.0 / fs_hz, window, "Hz")
 
 
 def resample_angle(x: np.ndarray, theta_rad: np.ndarray, samples_per_rev: int,
@@ -160,7 +94,7 @@ def order_spectrum(x: np.ndarray, theta_rad: np.ndarray, samples_per_rev: int, *
         ``x`` in orders; phase relative to ``theta_rad = 0``: ``x = A cos(order * theta + phase)``.
     """
     grid, xg = resample_angle(x, theta_rad, samples_per_rev, n_revs)
-    sp = _one_sided(xg - xg.mean(), window, 1.0 / samples_per_rev, "order")
+    sp = spectrum(xg - xg.mean(), 1.0 / samples_per_rev, window, "order")
     # refer the phases to angle zero instead of the first grid point: x = A cos(q*theta + phase)
     phase = np.angle(np.exp(1j * (sp.phase_rad - sp.x * grid[0])))
     return dataclasses.replace(sp, phase_rad=phase)

@@ -26,13 +26,13 @@ from __future__ import annotations
 
 import json
 import math
-import time as _time
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from gearrom.errors import ConfigError, ModelError, SolverError
+from gearrom.errors import ConfigError, ModelError
+from gearrom.spectral import line_amplitudes
 from gearrom.excitation.table import netcdf_engine
 
 
@@ -188,12 +188,10 @@ def simulate_runup(config_or_model, rpm_start: float, rpm_end: float, duration_s
     SolverError
         The integration diverged.
     """
-    import exudyn as exu
-    from exudyn.itemInterface import NodeGenericODE2, ObjectGenericODE2, SensorNode
 
     from gearrom.rom.components import RZ
     from gearrom.rom.mesh import Effects
-    from gearrom.rom.meshstep import MeshStepper, rk44_settings
+    from gearrom.rom.meshstep import MeshStepper, reduced_system, solve_rk44
     from gearrom.rom.reduce import periodic_initial_state, reduce
     from gearrom.rom.simulate import mesh_law
 
@@ -230,13 +228,7 @@ def simulate_runup(config_or_model, rpm_start: float, rpm_end: float, duration_s
     e_offset = law.evaluate(theta0, theta0 * z1 / z2)[1] - law.base(theta0)[1]
     y0, v0 = periodic_initial_state(red, model, rpm_start, torque, law.k_grid, law.e_grid, theta0, e_offset=e_offset)
 
-    SC = exu.SystemContainer()
-    mbs = SC.AddSystem()
-    nr = len(y0)
-    node = mbs.AddNode(NodeGenericODE2(referenceCoordinates=[0.0] * nr, initialCoordinates=list(y0),
-                                       initialCoordinates_t=list(v0), numberOfODE2Coordinates=nr))
-    body = mbs.AddObject(ObjectGenericODE2(nodeNumbers=[node], massMatrix=red.M, stiffnessMatrix=red.K,
-                                           dampingMatrix=red.D, forceVector=list(red.F)))
+    SC, mbs, node, body, sens = reduced_system(red, y0, v0)
     f_ramp = list(red.F + F_acc)
 
     def angles(tm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -253,16 +245,7 @@ def simulate_runup(config_or_model, rpm_start: float, rpm_end: float, duration_s
         return True
 
     mbs.SetPreStepUserFunction(pre_step)
-    sens = mbs.AddSensor(SensorNode(nodeNumber=node, outputVariableType=exu.OutputVariableType.Coordinates,
-                                    storeInternal=True, writeToFile=False))
-    mbs.Assemble()
-    s = rk44_settings(n_steps, n_steps * h, 1.0 / fs)
-    t0, c0 = _time.perf_counter(), _time.process_time()
-    ok = mbs.SolveDynamic(s, solverType=exu.DynamicSolverType.RK44)
-    wall, cpu = _time.perf_counter() - t0, _time.process_time() - c0
-    raw = mbs.GetSensorStoredData(sens)
-    if not ok or not np.all(np.isfinite(raw)):
-        raise SolverError(f"run-up integration failed (h = {h:.3g} s); try a smaller rom.max_step_us")
+    raw, wall, cpu = solve_rk44(mbs, sens, n_steps, n_steps * h, fs, "run-up integration")
     enc = {(e.side, e.shaft): model.index(e.station, RZ) for e in model.encoders}
     if ("sensor", "in") not in enc or ("sensor", "out") not in enc:
         raise ModelError(f"model {model.name!r} needs sensor-side encoders on both shafts for the run-up DTE")
@@ -301,7 +284,7 @@ def order_track(t: np.ndarray, dte: np.ndarray, w0: float, alpha: float, ts: flo
     for s0 in starts:
         blk = y[s0:s0 + n] - y[s0:s0 + n].mean()
         amp.append(2 * np.abs(np.fft.rfft(blk * win)) / win.sum())
-        gmf.append([2 * abs(np.mean(blk * np.exp(-2j * np.pi * m * k / samples_per_mesh))) for m in (1, 2, 3)])
+        gmf.append(line_amplitudes(blk, 2 * np.pi * k / samples_per_mesh, (1, 2, 3)))
         tb = t_grid[s0:s0 + n]
         rpm.append((grid[s0 + n - 1] - grid[s0]) / (tb[-1] - tb[0]) * 30 / math.pi)
         tc.append(0.5 * (tb[0] + tb[-1]) - ts)

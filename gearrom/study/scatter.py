@@ -87,7 +87,7 @@ def _micro_model(name: str):
 
 def _model(task: SampleTask):
     """The rig model of the sample: nominal table changed by the sample's flank modifications."""
-    from gearrom.config import load_config
+    from gearrom.config import as_config
     from gearrom.rom.rig import build_rig
 
     st = task.settings
@@ -95,9 +95,9 @@ def _model(task: SampleTask):
     if key not in _CACHE:
         if len(_CACHE) > 4:
             _CACHE.clear()
+        cfg = as_config(task.config_ref, check=True)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            cfg = load_config(task.config_ref)
             _CACHE[key] = (cfg, build_rig(cfg, torque_out=st.torque_out_Nm))
     cfg, nominal = _CACHE[key]
     mods = task.deviations.mods()
@@ -172,12 +172,10 @@ def run_sample(task: SampleTask) -> dict:
 
 def study_key(config_ref: str, settings: StudySettings) -> dict:
     """The reuse key shared by all samples of a study (see :func:`gearrom.rom.sweep.reuse_key`)."""
-    from gearrom.config import load_config
+    from gearrom.config import as_config
     from gearrom.rom.sweep import reuse_key
 
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        cfg = load_config(config_ref)
+    cfg = as_config(config_ref, check=True)
     key = reuse_key(cfg, settings.torque_out_Nm, settings.n_output_revs, settings.samples_per_mesh, False)
     key.update(rpm=[repr(float(r)) for r in settings.rpm], micro_model=settings.micro_model, format=1)
     return key
@@ -218,15 +216,13 @@ def run_tolerance_study(config_ref: str | Path, spec: ToleranceSpec, n_samples: 
     on_result : callable, optional
         ``on_result(client, n_done)`` after each finished sample.
     """
-    from gearrom.config import load_config
+    from gearrom.config import as_config
     from gearrom.study.distributed import cluster_client, run_tasks
     from gearrom.study.result import ToleranceResult
 
     if isinstance(n_samples, bool) or not isinstance(n_samples, int) or n_samples < 1:
         raise ConfigError(f"n_samples must be a positive integer, got {n_samples!r}")
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        cfg = load_config(config_ref)
+    cfg = as_config(config_ref, check=True)
     ref = str(cfg.source) if cfg.source else str(config_ref)
     out = Path(out_dir)
     (out / "samples").mkdir(parents=True, exist_ok=True)

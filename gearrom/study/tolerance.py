@@ -19,7 +19,7 @@ tolerance zone, not over a particular machine's process capability):
 
 Pitch deviations and runout go into the ROM as kinematic effects (:class:`gearrom.rom.mesh.Effects`,
 no table change); helix slope, tip relief and crowning change the mesh excitation table
-(:class:`gearrom.calibrate.microgeom.MicroMods`).
+(:class:`gearrom.calibrate.micromodel.MicroMods`).
 """
 from __future__ import annotations
 

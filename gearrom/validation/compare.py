@@ -12,6 +12,7 @@ import math
 import numpy as np
 
 from gearrom.errors import ModelError
+from gearrom.spectral import line_coefficients
 
 __all__ = ["TOLERANCES", "steady_window", "te_metrics", "compare_metrics"]
 
@@ -81,8 +82,7 @@ def te_metrics(theta_in: np.ndarray, te: np.ndarray, z1: int, orders: int = 3) -
     out = {"te_mean_um": x.mean() * 1e6, "dte_ptp_um": float(np.ptp(x)) * 1e6,
            "dte_rms_um": float(np.sqrt(np.mean(d * d))) * 1e6,
            "dte_periodic_rms_um": float(np.sqrt(np.mean(per * per))) * 1e6, "mesh_periods": int(round(periods))}
-    for m in range(1, orders + 1):
-        c = 2.0 * np.mean(d * np.exp(-1j * m * z1 * th))
+    for m, c in zip(range(1, orders + 1), line_coefficients(x, z1 * th, range(1, orders + 1))):
         out[f"gmf{m}_amplitude_um"] = float(abs(c)) * 1e6
         out[f"gmf{m}_phase_deg"] = float(np.degrees(np.angle(c)))
     return {k: float(v) if k != "mesh_periods" else v for k, v in out.items()}

@@ -27,6 +27,7 @@ import math
 import numpy as np
 
 from gearrom.errors import ModelError
+from gearrom.spectral import line_amplitudes, line_coefficients, spectrum
 
 __all__ = ["GATES", "periodic_split", "noise_floor", "record_gates"]
 
@@ -56,9 +57,7 @@ def periodic_split(theta_in: np.ndarray, te: np.ndarray, z1: int, orders: int = 
     x = np.asarray(te, float)
     _periods(th, z1)
     per = np.full_like(x, x.mean())
-    d = x - x.mean()
-    for m in range(1, orders + 1):
-        c = 2.0 * np.mean(d * np.exp(-1j * m * z1 * th))
+    for m, c in zip(range(1, orders + 1), line_coefficients(x, z1 * th, range(1, orders + 1))):
         per += np.real(c * np.exp(1j * m * z1 * th))
     return per, x - per
 
@@ -68,7 +67,7 @@ def noise_floor(theta_in: np.ndarray, te: np.ndarray, z1: int, max_order: float 
     below ``max_order``."""
     x = np.asarray(te, float)
     n_per = _periods(theta_in, z1)
-    spec = 2.0 * np.abs(np.fft.rfft(x - x.mean())) / x.size
+    spec = spectrum(x - x.mean(), 1.0, "rect").amplitude
     order = np.arange(spec.size) / n_per
     off = (order > 0) & (order <= max_order) & (np.arange(spec.size) % n_per != 0)
     if not off.any():
@@ -91,7 +90,7 @@ def record_gates(theta_in: np.ndarray, te: np.ndarray, z1: int, energies: dict |
     share = float(np.sqrt(np.mean(rest ** 2)) / dte_rms) if dte_rms > 0 else math.inf
     means = x[: (x.size // n_per) * n_per].reshape(n_per, -1).mean(axis=1)
     drift = abs(np.polyfit(np.arange(n_per), means, 1)[0]) * (n_per - 1) if n_per > 1 else 0.0
-    gmf1 = float(abs(2.0 * np.mean((x - x.mean()) * np.exp(-1j * z1 * th))))
+    gmf1 = float(line_amplitudes(x, z1 * th, (1,))[0])
     out = {"nonperiodic_share": share, "drift_rel_gmf1": drift / gmf1 if gmf1 > 0 else math.inf,
            "drift_um": drift * 1e6, "periodic_dte_rms_um": dte_rms * 1e6, "noise_floor_um": noise_floor(th, x, z1) * 1e6,
            "energy_error_rel": None}

@@ -48,10 +48,10 @@ def quasistatic_check(config: str = "thesis-spur", rpm: float = 60.0, fe_dir: st
         ``te_mean_um`` {fe, qs, qs_facets, rel_error}, ``ste_ptp_um`` {...}, ``rms_difference_rel``,
         ``passed``, ``misses``, arrays ``theta_in_deg``, ``te_fe_um``, ``ste_qs_um``, ``ste_qs_facets_um``.
     """
-    from gearrom.config import load_config
+    from gearrom.config import as_config
     from gearrom.validation.pair_rom import fe_start_mesh_phase, mesh_excitation
 
-    pair = load_config(config).pair
+    pair = as_config(config, check=True, quiet=False).pair
     fe = load_fe_record(fe_dir if fe_dir is not None else DEFAULT_FE_DIR, rpm, integration=integration)
     torque = float(fe.meta["torque_out_Nm"])
     if excitation is None:

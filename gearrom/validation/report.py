@@ -7,7 +7,7 @@ Stored FE records (written by ``validation/run_explicit_spur.py`` and, for helic
 ``body_size_mm``, ``wall_s``, ``t_end_s``.
 
 Helical pairs: the ROM is the same 1-DOF pair model on the transverse line of action with the
-helical mesh table (the slice LTCA of :mod:`gearrom.fe.helical` by default, whose phase origin is
+helical mesh table (the slice LTCA of :mod:`gearrom.fe.ltca_slices` by default, whose phase origin is
 the mid-face section, as the 3D FE's start position); the output inertia is the transverse mesh's
 polar inertia times the common face width (the extruded mesh's); no faceted-outline kinematic TE
 (the 3D FE's outline nodes lie on the generated profile; its per-layer rigid slack is in the record).
@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from gearrom.errors import ConfigError
+from gearrom.spectral import spectrum
 from gearrom.validation.compare import PERIODIC_ORDERS, TOLERANCES, compare_metrics, steady_window, te_metrics
 from gearrom.validation.gates import record_gates
 from gearrom.validation.pair_rom import (PairRomSetup, mesh_excitation, polar_inertia, scaled_excitation,
@@ -235,7 +236,7 @@ class ValidationReport:
                 x = th[w] * z1 / (2 * math.pi)
                 row[0].plot(x, te[w] * 1e6, st, lw=1, label=lab)
                 d = te[w] - te[w].mean()
-                spec = 2 * np.abs(np.fft.rfft(d)) / d.size * 1e6
+                spec = spectrum(d, 1.0).amplitude * 1e6
                 order = np.arange(spec.size) / (x[-1] - x[0] + (x[1] - x[0]))
                 row[1].plot(order, spec, st, lw=1, label=lab, marker="." if lab == "explicit FE" else "o", ms=3)
             row[0].set(xlabel="input angle [mesh periods]", ylabel="TE [um]",
@@ -302,9 +303,9 @@ def validate(config: str, rpms, fe_dir: str | Path | None = None, fresh: bool = 
         raise ConfigError(f"rom_model must be one of {ROM_MODELS}, got {rom_model!r}")
     if table not in TABLES:
         raise ConfigError(f"table must be one of {TABLES}, got {table!r}")
-    from gearrom.config import load_config
+    from gearrom.config import as_config
 
-    cfg = load_config(config)
+    cfg = as_config(config, check=True, quiet=False)
     pair = cfg.pair
     helical = pair.is_helical
     if helical and fresh:

@@ -21,6 +21,7 @@ import math
 import numpy as np
 
 from gearrom.errors import ModelError
+from gearrom.spectral import line_amplitudes
 
 __all__ = ["SPUR_LIMITS", "HELICAL_LIMITS", "curve_metrics", "static_gate"]
 
@@ -33,8 +34,8 @@ def curve_metrics(te: np.ndarray) -> dict:
     x = np.asarray(te, float)
     if x.ndim != 1 or x.size < 8:
         raise ModelError(f"a static TE curve needs >= 8 points over the mesh period, got {x.shape}")
-    spec = 2.0 * np.abs(np.fft.rfft(x - x.mean())) / x.size
-    return {"mean": float(x.mean()), **{f"gmf{m}": float(spec[m]) for m in (1, 2, 3)}}
+    amp = line_amplitudes(x, 2 * np.pi * np.arange(x.size) / x.size, (1, 2, 3))
+    return {"mean": float(x.mean()), **{f"gmf{m}": float(a) for m, a in zip((1, 2, 3), amp)}}
 
 
 def static_gate(te_fe: dict, te_ltca: dict, rb2: float, helical: bool = False) -> dict:

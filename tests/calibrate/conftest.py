@@ -1,7 +1,7 @@
 """Fixtures of the diagnosis tests: synthetic measurements with undeclared effects, generated at test time.
 
 Each data set is simulated by the torsional rig model with effects injected from their physical
-definitions (:mod:`gearrom.calibrate.synthetic`), emulated as encoder edges (40000 edges/rev,
+definitions (:mod:`gearrom.testing.synthetic`), emulated as encoder edges (40000 edges/rev,
 80 MHz counter, 2 ns jitter, 0.2 urad line errors) and written as ``gearrom.measurement/1`` files.
 Data sets and diagnoses are cached per session, so several tests can look at one diagnosis. The
 acceptance data of issue 6 are made by the exudyn ROM with its own effect models (``rom_*`` fixtures).
@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import pytest
 
-from gearrom.calibrate import FitSettings, Injected, TorsionalRig, diagnose, make_run
+from gearrom.calibrate import FitSettings, TorsionalRig, diagnose
+from gearrom.testing import Injected, make_run
 
 
 @pytest.fixture(scope="session")
@@ -83,7 +84,7 @@ def rom_dataset(tmp_path_factory):
     36000 edges/rev, 80 MHz counter, 2 ns jitter, 0.2 urad line errors, random start and disc angles,
     2.3 output revolutions) and written as ``gearrom.measurement/1`` files. Cached per session."""
     pytest.importorskip("exudyn")
-    from gearrom.calibrate.synthetic import make_rom_run, rom_model
+    from gearrom.testing.synthetic import make_rom_run, rom_model
 
     cache = {}
 

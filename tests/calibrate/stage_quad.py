@@ -1,7 +1,7 @@
 """Sampled A/B recordings of the bundled 15/30 stage (``stage-15-30``) made from the torsional rig model.
 
 The rig model is simulated at the steady speed with the injected effects (kinematic tables of
-:mod:`gearrom.calibrate.synthetic`, written from their physical definitions); its shaft angles, as
+:mod:`gearrom.testing.synthetic`, written from their physical definitions); its shaft angles, as
 functions of the nominal input angle, are replayed along a start-up / steady / stop angle history
 (:func:`gearrom.signal.daq.runup_angle`; quasi-static replay: the stage's first mode is far above
 the shaft orders and the GMF at 82 rpm) and sampled by the DAQ emulation (1000 lines, 50 kHz).
@@ -14,9 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
-from gearrom.calibrate.rig import TorsionalRig
+from gearrom.calibrate.torsional import TorsionalRig
 from gearrom.calibrate.simulator import ModelChanges, RunConditions
-from gearrom.calibrate.synthetic import Injected, kinematic_tables
+from gearrom.testing.synthetic import Injected, kinematic_tables
 from gearrom.signal.daq import DAQSettings, emulate_quadrature, runup_angle, write_quadrature
 
 CONFIG = "stage-15-30"

@@ -1,6 +1,6 @@
 """Acceptance of issue 6 on data made by the exudyn ROM (issue 4) with effects the diagnosis is not told about.
 
-Data: :func:`gearrom.calibrate.synthetic.make_rom_run`: the ROM of ``thesis-rig`` with the ROM's *own*
+Data: :func:`gearrom.testing.synthetic.make_rom_run`: the ROM of ``thesis-rig`` with the ROM's *own*
 effect models (``gearrom.rom.Runout`` with centre-distance modulation, ``PitchDeviations`` through the
 ROM's smoothed cumulative pitch curve, ``LoadRipple``, rig overrides via ``with_overrides``, a scaled
 mesh table, flank modifications as a change of the ROM's table from the quasi-static FE), encoder
@@ -10,7 +10,7 @@ ROM only.
 
 Reference values: the injected sizes and, for phases, the ROM's absolute angles converted to the
 diagnosis' convention (angle zero at each channel's first edge, known from the emulation):
-``gearrom.calibrate.synthetic.rom_runout_phase_deg`` / ``encoder_phase_deg``. Tolerances are the
+``gearrom.testing.synthetic.rom_runout_phase_deg`` / ``encoder_phase_deg``. Tolerances are the
 issue's: right effect and target named first, amplitude within 25 %, phase within 20 deg, error
 after <= half the error before.
 """
@@ -23,7 +23,7 @@ import pytest
 pytest.importorskip("exudyn")
 
 from gearrom.calibrate import MicroMods  # noqa: E402
-from gearrom.calibrate.synthetic import RomInjected, encoder_phase_deg, rom_runout_phase_deg  # noqa: E402
+from gearrom.testing.synthetic import RomInjected, encoder_phase_deg, rom_runout_phase_deg  # noqa: E402
 from gearrom.rom import LoadRipple, PitchDeviations, Runout  # noqa: E402
 
 K_CLUTCH = 2.0e5  # thesis-rig's rig.clutch.stiffness_Nm_per_rad

@@ -5,7 +5,8 @@ import json
 
 import pytest
 
-from gearrom.calibrate import DiagnosisResult, Injected
+from gearrom.calibrate import DiagnosisResult
+from gearrom.testing import Injected
 from gearrom.cli import main
 
 ECC = Injected(eccentricity={"output_gear": (10.0, 40.0)})

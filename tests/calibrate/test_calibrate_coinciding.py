@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gearrom.calibrate import Injected
+from gearrom.testing import Injected
 from gearrom.calibrate.residual import coinciding_lines, fit_lines, load_run
 from gearrom.errors import MeasurementError
 from gearrom.signal import GearMeshInfo, TESettings

@@ -12,7 +12,7 @@ from gearrom.calibrate import characterize as chz
 from gearrom.calibrate.registry import amp_phase
 from gearrom.excitation.slices import MicroMods, SliceMicroModel
 from gearrom.calibrate.residual import detrend, estimate_mesh_phase, fit_lines, noise_rms
-from gearrom.calibrate.rig import TorsionalRig
+from gearrom.calibrate.torsional import TorsionalRig
 from gearrom.calibrate.simulator import ModelChanges, RunConditions
 from gearrom.config import load_config
 from gearrom.errors import CalibrationError

@@ -5,7 +5,7 @@ The toy is ``encoder_ovality``: an oval encoder disc, a twice-per-revolution ang
 shaft in the TE and the encoder's own channel), its config mapping, and the shaft-order plugin hooks
 (evidence, the residual line it explains); ``register`` adds it to the library. The data: the torsional rig model simulated clean, the input encoder's angle
 given a twice-per-rev error of known size and phase before the encoder emulation (as
-:func:`gearrom.calibrate.synthetic.make_run` does for once-per-rev encoder errors). The reference is
+:func:`gearrom.testing.synthetic.make_run` does for once-per-rev encoder errors). The reference is
 the injected error itself.
 """
 from __future__ import annotations

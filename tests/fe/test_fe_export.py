@@ -108,20 +108,28 @@ def test_ccx_te_errors(tmp_path):
 
 @pytest.mark.skipif(shutil.which("ccx") is None, reason="CalculiX (ccx, Debian package calculix-ccx) is not installed")
 def test_cli_deck_solves_with_calculix_within_5_percent(tmp_path, monkeypatch):
-    """Exactly the deck of ``gearrom stiffness thesis-spur --inp``, solved by ``ccx -i`` as written.
+    """The deck of ``gearrom stiffness thesis-spur --inp``, coarsened twofold (``--mesh-factor 2``), solved by
+    ``ccx -i`` as written.
 
-    Reference: the LTCA's static TE at the deck's position (theta = 0) and torque (120 N m), which
-    the deck records; CalculiX is an independent FE code (penalty face-to-face contact on quadratic
-    wedges). Tolerance 5 % (issue acceptance; the meshes differ near the Hertz zone).
+    Reference: the LTCA's static TE at the deck's position (theta = 0) and torque (120 N m) at the default
+    resolution (``gearrom stiffness thesis-spur --json``); CalculiX is an independent FE code (penalty
+    face-to-face contact on quadratic wedges) whose result moves little with the deck's mesh, while the LTCA
+    on a coarse mesh is softer. Tolerance 5 % (issue acceptance; the meshes differ near the Hertz zone).
+    The deck at full resolution is solved by benchmarks/bench_inp_cli_ccx.py.
     """
+    import json
+
     from gearrom.cli import main
 
     monkeypatch.setenv("OMP_NUM_THREADS", "2")
     deck = tmp_path / "d.inp"
-    assert main(["stiffness", "thesis-spur", "--positions", "4", "--inp", str(deck)]) == 0
+    assert main(["stiffness", "thesis-spur", "--positions", "4", "--mesh-factor", "2", "--inp", str(deck)]) == 0
     run = subprocess.run(["ccx", "-i", "d"], cwd=tmp_path, capture_output=True, text=True, timeout=1800)
     assert run.returncode == 0 and "Job finished" in run.stdout, run.stdout[-2000:]
     res = read_static_te(deck)
     assert res["torque_out_Nm"] == pytest.approx(120.0, rel=1e-6)
-    assert res["ste_um"] == pytest.approx(res["ltca_ste_um"], rel=0.05)
+    assert main(["stiffness", "thesis-spur", "--positions", "4", "--json", str(tmp_path / "s.json")]) == 0
+    fine = json.loads((tmp_path / "s.json").read_text())
+    assert fine["mesh_angle_deg"][0] == 0.0 and fine["torque_Nm"] == 120.0
+    assert res["ste_um"] == pytest.approx(fine["ste_um"][0], rel=0.05)
     assert main(["ccx-te", str(deck)]) == 0

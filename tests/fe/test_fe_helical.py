@@ -18,7 +18,7 @@ import pytest
 
 from gearrom.config import load_config
 from gearrom.fe.contact import solve_contact, solve_contact_blocks
-from gearrom.fe.helical import HelicalSliceLTCA, plot_contact_pattern
+from gearrom.fe.ltca_slices import HelicalSliceLTCA, plot_contact_pattern
 from gearrom.fe.iso6336 import mesh_stiffness
 from gearrom.fe.mesh2d import MeshSettings
 from gearrom.fe.sweep import build_ltca, mesh_cycle

@@ -27,7 +27,7 @@ import pytest
 from gearrom.config import load_config
 from gearrom.fe.compliance3d import cached_compliance3d, flank_geometry
 from gearrom.fe.halfspace import rect_surface
-from gearrom.fe.helical3d import Helical3DLTCA, contact_pattern
+from gearrom.fe.ltca_helical import Helical3DLTCA, contact_pattern
 from gearrom.fe.iso6336 import mesh_stiffness
 from gearrom.fe.mesh3d import Mesh3DSettings
 from gearrom.fe.sweep import mesh_cycle
@@ -203,7 +203,7 @@ def test_vtu_export_of_the_3d_pair(helical3d, loaded, tmp_path):
     assert 0.2 * res.ste < umax < 3 * res.ste
     assert np.all(m.cell_data["von_mises"][0] >= 0)
     from gearrom.errors import ModelError
-    from gearrom.fe.helical import HelicalSliceLTCA
+    from gearrom.fe.ltca_slices import HelicalSliceLTCA
 
     slices = HelicalSliceLTCA.__new__(HelicalSliceLTCA)  # no FE needed: export refuses it up front
     slices.pair = pair

@@ -1,4 +1,4 @@
-"""3D (Hex8) helical gear pair of the explicit solver (gearrom.fe.explicit.helical3d).
+"""3D (Hex8) helical gear pair of the explicit solver (gearrom.fe.explicit.helicalpair).
 
 References: the helix geometry (a transverse section at axial position z is turned by
 z tan(beta) / r, r the pitch radius: the definition of the helix angle, not the code's twist());
@@ -15,7 +15,7 @@ import pytest
 
 from gearrom.errors import ConfigError
 from gearrom.fe.explicit.gearpair import GearPairSetup
-from gearrom.fe.explicit.helical3d import helical_meshes, helical_pair_model
+from gearrom.fe.explicit.helicalpair import helical_meshes, helical_pair_model
 
 
 @pytest.fixture(scope="module")
@@ -126,7 +126,7 @@ def test_coarse_run_energy_balance(helical, coarse_meshes):
     conservation of the undamped central-difference scheme; the error is the unaccounted energy) within 5 %
     of the external work, and the output lags the input (TE > 0 once loaded). Until the open-edge rule of
     the 3D contact this run ended with a balance error of ~800 times the external work."""
-    from gearrom.fe.explicit.helical3d import run_helical_pair
+    from gearrom.fe.explicit.helicalpair import run_helical_pair
 
     setup = GearPairSetup(rpm_in=2000.0, torque_out=120.0, torque_ramp_time=0.15e-3, penalty_scale=0.1,
                           hourglass_stiffness=0.1, mass_scaling_dt=3e-8)
@@ -143,7 +143,7 @@ def test_start_gap_is_the_clearance_as_the_contact_sees_it(helical, coarse_meshe
     (normal gap / cos(beta_b), the helix geometry), equals the set-up clearance. The rigid section touch
     alone left ~8 um more on the coarse mesh (the mate's tip passing the root touched first), so the
     pair ran free for ~0.1 ms before the flanks took load."""
-    from gearrom.fe.explicit.helical3d import contact_min_gap
+    from gearrom.fe.explicit.helicalpair import contact_min_gap
 
     setup = GearPairSetup()
     model, info = helical_pair_model(helical, coarse_meshes, setup, 4, run_angle=0.05)

@@ -145,7 +145,7 @@ def _projected(mesh, exact: np.ndarray):
 
 
 def _mesh(pair, i, outline, outline_size, body_size, grading, algo, blossom, smooth):
-    from gearrom.fe.mesh2d import gmsh_session
+    from gearrom.fe.mesh2d import gmsh_session, surface_elements
 
     rb = 0.5 * pair.gears[i].bore_diameter
     with gmsh_session(f"quadgear{i}") as gmsh:
@@ -181,16 +181,7 @@ def _mesh(pair, i, outline, outline_size, body_size, grading, algo, blossom, smo
             gmsh.model.mesh.generate(2)
         except Exception as exc:  # gmsh raises plain Exception
             raise MeshError(f"gmsh failed to mesh gear {i}: {exc}") from None
-        tags, coords, _ = gmsh.model.mesh.getNodes()
-        xy = coords.reshape(-1, 3)[:, :2]
-        index = np.full(int(tags.max()) + 1, -1, np.int64)
-        index[tags.astype(np.int64)] = np.arange(tags.size)
-        quads = []
-        for etype, _, nodes in zip(*gmsh.model.mesh.getElements(2)):
-            if etype != 3:
-                raise MeshError(f"gmsh produced element type {etype} for gear {i}; expected 4-node quads")
-            quads.append(index[nodes.astype(np.int64)].reshape(-1, 4))
-        quads = np.vstack(quads)
+        xy, quads, index = surface_elements(gmsh, 3, f" for gear {i}")
         bore = []
         for c in arcs:
             for _, _, nodes in zip(*gmsh.model.mesh.getElements(1, c)):

@@ -1,4 +1,4 @@
-"""Helical pairs by thin transverse slices (an approximation, NOT the 3D model of the issue).
+"""Helical pairs by thin transverse slices (an approximation; the 3D model is :mod:`gearrom.fe.ltca_helical`).
 
 The face width is cut into ``n_slices`` slices. Each slice is the transverse section at its axial
 position ``z`` and meshes like a spur pair at the shifted position ``theta + z tan(beta_b) / r_b1``

@@ -165,7 +165,7 @@ class TorsionalRig:
         Integration step and discarded warm-up, s.
     """
 
-    name = "gearrom.calibrate.rig.TorsionalRig"
+    name = "gearrom.calibrate.torsional.TorsionalRig"
 
     def __init__(self, pair, params: RigParams | None = None, micro: MicroMods | None = None,
                  micro_model=None, h_s: float = 2e-5, warmup_s: float = 0.08):
@@ -179,10 +179,10 @@ class TorsionalRig:
 
     @classmethod
     def from_config(cls, config, **kw) -> TorsionalRig:
-        """Rig model for a gear configuration name or file."""
-        from gearrom.config import load_config
+        """Rig model for a gear configuration (loaded, bundled name or file)."""
+        from gearrom.config import as_config
 
-        return cls(load_config(config, check=False).pair, **kw)
+        return cls(as_config(config).pair, **kw)
 
     def tunable(self) -> dict[str, str]:
         return dict(TUNABLE)

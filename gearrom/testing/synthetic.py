@@ -181,19 +181,16 @@ class RomInjected:
 def rom_model(config: str, torque_out_Nm: float, inj: RomInjected, micro_model=None):
     """The ROM drivetrain of ``config`` with the rig/mesh changes of ``inj`` (for :func:`make_rom_run`)."""
     import dataclasses
-    import warnings
 
     from gearrom.calibrate.microfe import FEMicroModel, with_micro
-    from gearrom.config import load_config
+    from gearrom.config import as_config
     from gearrom.rom import build_rig, with_overrides
     from gearrom.rom.rig import load_excitation, rom_section
 
     cfg = with_overrides(config, dict(inj.overrides)) if inj.overrides else config
     ex = None
     if inj.micro is not None or inj.mesh_stiffness != 1.0:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            loaded = load_config(config, check=False)
+        loaded = as_config(config)
         ex = load_excitation(loaded, rom_section(loaded), torque_out_Nm)
         if inj.micro is not None:
             ex = with_micro(ex, micro_model or FEMicroModel(), loaded.pair, torque_out_Nm,

@@ -1,4 +1,4 @@
-"""Loaded tooth contact analysis of a helical pair with 3D FE compliances (the model of issue #3).
+"""Loaded tooth contact analysis of a helical pair with 3D FE compliances.
 
 Contact lines: the face width is cut into ``n_slices`` strips at axial positions ``z_m``. The
 transverse section at ``z`` of gear 1 is its z = 0 section turned by the helix twist, so at input
@@ -35,7 +35,7 @@ from gearrom.errors import SolverError
 from gearrom.fe.contact import solve_contact
 from gearrom.fe.halfspace import rect_surface
 from gearrom.fe.ltca import PositionResult
-from gearrom.fe.microgeo import pitch_removal, profile_removal, runout_removal, tip_limit
+from gearrom.fe.flankgaps import pitch_removal, profile_removal, runout_removal, tip_limit
 
 _GX, _GW = np.polynomial.legendre.leggauss(8)
 _GX, _GW = 0.5 * (_GX + 1), 0.5 * _GW
@@ -65,7 +65,7 @@ def _solve_from(C: np.ndarray, h: np.ndarray, force: float, active: np.ndarray, 
     :func:`gearrom.fe.contact.solve_contact`); None if it does not converge (caller falls back)."""
     from scipy.linalg import cho_factor, cho_solve
 
-    from gearrom.fe.contact import ContactSolution
+    from gearrom.fe.contact import activate_penetrating
 
     active = active.copy()
     if not active.any():
@@ -84,14 +84,9 @@ def _solve_from(C: np.ndarray, h: np.ndarray, force: float, active: np.ndarray, 
             if not active.any():
                 return None
             continue
-        f = np.zeros(h.size)
-        f[idx] = fa
-        gap = h + C @ f - delta
-        pen = np.flatnonzero((gap < -tol) & ~active)
-        if pen.size == 0:
-            gap[idx] = 0.0
-            return ContactSolution(f=f, delta=delta, gap=gap, iterations=it)
-        active[pen] = True
+        sol, _ = activate_penetrating(h, C, idx, fa, delta, active, tol, it)
+        if sol is not None:
+            return sol
     return None
 
 
