@@ -103,13 +103,8 @@ class FlankCompliance:
 
     @classmethod
     def load(cls, path: str | Path) -> "FlankCompliance":
-        """Read a file written by :meth:`save`.
-
-        Raises
-        ------
-        gearrom.fe.cache.CacheEntryError
-            The file is damaged or incomplete (:func:`gearrom.fe.cache.read_arrays`).
-        """
+        """Read a file written by :meth:`save`; a damaged or incomplete file raises
+        :class:`gearrom.fe.cache.CacheEntryError` (:func:`gearrom.fe.cache.read_arrays`)."""
         d = read_arrays(path)
         return cls(rb=float(d["rb"]), sigma=d["sigma"], spacing=float(d["spacing"]), offsets=d["offsets"],
                    G=d["G"], face_width=float(d["face_width"]), info=json.loads(str(d["info"])),

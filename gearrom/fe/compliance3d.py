@@ -152,13 +152,8 @@ class FlankCompliance3D:
 
     @classmethod
     def load(cls, path: str | Path) -> "FlankCompliance3D":
-        """Read a file written by :meth:`save`.
-
-        Raises
-        ------
-        gearrom.fe.cache.CacheEntryError
-            The file is damaged or incomplete (:func:`gearrom.fe.cache.read_arrays`).
-        """
+        """Read a file written by :meth:`save`; a damaged or incomplete file raises
+        :class:`gearrom.fe.cache.CacheEntryError` (:func:`gearrom.fe.cache.read_arrays`)."""
         d = read_arrays(path)
         kw = {k: (float(d[k]) if d[k].ndim == 0 else d[k]) for k in _ARRAY_FIELDS}
         return cls(info=json.loads(str(d["info"])), **kw)

@@ -142,6 +142,17 @@ def gmsh_session(name: str):
             gmsh.finalize()
 
 
+def add_bore_surface(geo, outer: int, bore_radius: float) -> list[int]:
+    """Add the plane surface between the curve loop ``outer`` and a bore circle of ``bore_radius`` [m] (four
+    arcs about the origin) to the gmsh ``geo`` kernel and synchronize; returns the arcs' tags."""
+    c0 = geo.addPoint(0, 0, 0)
+    q = [geo.addPoint(bore_radius * math.cos(a), bore_radius * math.sin(a), 0) for a in np.arange(4) * math.pi / 2]
+    arcs = [geo.addCircleArc(q[n], c0, q[(n + 1) % 4]) for n in range(4)]
+    geo.addPlaneSurface([outer, geo.addCurveLoop(arcs)])
+    geo.synchronize()
+    return arcs
+
+
 def surface_elements(gmsh, etype: int, what: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Nodes (x, y) and 2D elements of the open gmsh model: ``(points, connectivity, tag -> row index)``.
 
@@ -193,13 +204,14 @@ def extract_mesh(gmsh, named: dict[str, list[int]], bore_curves: list[int]) -> M
     return mesh
 
 
-def threshold_field(gmsh, curve_tags: list[int], size_min: float, size_max: float, d_min: float, d_max: float) -> int:
-    """A gmsh size field [m]: ``size_min`` within ``d_min`` of the curves, growing to ``size_max`` at ``d_max``;
-    returns the field tag."""
+def threshold_field(gmsh, curve_tags: list[int], size_min: float, size_max: float, d_min: float, d_max: float,
+                    sampling: int = 400) -> int:
+    """A gmsh size field [m]: ``size_min`` within ``d_min`` of the curves, growing to ``size_max`` at ``d_max``
+    (distances from ``sampling`` points per curve); returns the field tag."""
     f = gmsh.model.mesh.field
     dist = f.add("Distance")
     f.setNumbers(dist, "CurvesList", curve_tags)
-    f.setNumber(dist, "Sampling", 400)
+    f.setNumber(dist, "Sampling", sampling)
     th = f.add("Threshold")
     f.setNumber(th, "InField", dist)
     f.setNumber(th, "SizeMin", size_min)
@@ -342,13 +354,7 @@ def gear_mesh(pair, i: int, settings: MeshSettings | None = None, tip_edge_radiu
                 if abs(j) <= s.near_teeth:
                     named.setdefault(f"{SEGMENT_NAMES[seg]}_{'r' if side > 0 else 'l'}_{j}", []).append(c)
         outer = geo.addCurveLoop(curve_loop)
-        rb = 0.5 * g.bore_diameter
-        c0 = geo.addPoint(0, 0, 0)
-        q = [geo.addPoint(rb * math.cos(a), rb * math.sin(a), 0) for a in np.arange(4) * math.pi / 2]
-        arcs = [geo.addCircleArc(q[n], c0, q[(n + 1) % 4]) for n in range(4)]
-        hole = geo.addCurveLoop(arcs)
-        geo.addPlaneSurface([outer, hole])
-        geo.synchronize()
+        arcs = add_bore_surface(geo, outer, 0.5 * g.bore_diameter)
         fine = [c for j in range(-s.refined_teeth, s.refined_teeth + 1) for n in ("involute_r", "edge_r")
                 for c in named.get(f"{n}_{j}", [])]
         fillets = [c for j in range(-s.refined_teeth, s.refined_teeth + 1)

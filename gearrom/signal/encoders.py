@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 from gearrom.errors import MeasurementError
 
-__all__ = ["CHANNELS", "EncoderInfo", "encoder_ratio"]
+__all__ = ["CHANNELS", "EncoderInfo", "encoder_table", "encoder_ratio"]
 
 #: the two encoder channels of a measurement: input and output shaft
 CHANNELS = ("input", "output")
@@ -53,3 +53,19 @@ def encoder_ratio(e: dict, where: str) -> float:
         raise MeasurementError(f"{where}: 'ratio' must be a number in (0, 1000] (encoder revolutions per shaft "
                                f"revolution), got {val!r}")
     return float(val)
+
+
+def encoder_table(e, where: str, allowed: set[str], kind: str = "") -> dict:
+    """The JSON object of one encoder channel, checked: an object whose keys are all ``allowed``.
+
+    Raises
+    ------
+    MeasurementError
+        Not an object, or an unknown key (``where`` names the file and channel).
+    """
+    if not isinstance(e, dict):
+        raise MeasurementError(f"{where} must be an object, got {e!r}")
+    bad = sorted(set(e) - allowed)
+    if bad:
+        raise MeasurementError(f"{where}: unknown key(s) {bad}; allowed{kind}: {sorted(allowed)}")
+    return e

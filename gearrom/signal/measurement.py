@@ -17,7 +17,7 @@ from typing import Any, Literal
 import numpy as np
 
 from gearrom.errors import MeasurementError
-from gearrom.signal.encoders import CHANNELS, EncoderInfo, encoder_ratio
+from gearrom.signal.encoders import CHANNELS, EncoderInfo, encoder_ratio, encoder_table
 from gearrom.signal.qmeta import read_quadrature_meta
 
 FORMAT = "gearrom.measurement/1"
@@ -212,13 +212,8 @@ def _read_encoders(enc: Any, where: str, *, required: bool) -> dict[str, Encoder
             if required:
                 raise MeasurementError(f"{where}: 'encoders' is missing channel {ch!r}")
             continue
-        e = enc[ch]
         w = f"{where}: encoders.{ch}"
-        if not isinstance(e, dict):
-            raise MeasurementError(f"{w} must be an object, got {e!r}")
-        bad = sorted(set(e) - _ENCODER_KEYS)
-        if bad:
-            raise MeasurementError(f"{w}: unknown key(s) {bad}; allowed: {sorted(_ENCODER_KEYS)}")
+        e = encoder_table(enc[ch], w, _ENCODER_KEYS)
         n = e.get("edges_per_rev")
         if isinstance(n, bool) or not isinstance(n, int) or n < 1:
             raise MeasurementError(f"{w}: 'edges_per_rev' must be an integer >= 1, got {n!r}")

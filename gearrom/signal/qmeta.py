@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from typing import Any, Literal
 
 from gearrom.errors import MeasurementError
-from gearrom.signal.encoders import CHANNELS, EncoderInfo, encoder_ratio
+from gearrom.signal.encoders import CHANNELS, EncoderInfo, encoder_ratio, encoder_table
 
 _QUAD_KEYS = {"threshold", "hysteresis", "decoding", "time", "variable", "columns", "edge_time"}
 _ENC_KEYS = {"lines", "a", "b", "z", "location", "ratio"}
@@ -122,13 +122,8 @@ def read_quadrature_meta(doc: dict[str, Any], where: str) -> tuple[QuadratureInf
                                + (f"; unknown {unknown}" if unknown else "") + (f"; missing {missing}" if missing else ""))
     out = {}
     for ch in CHANNELS:
-        e = enc[ch]
         we = f"{where}: encoders.{ch}"
-        if not isinstance(e, dict):
-            raise MeasurementError(f"{we} must be an object, got {e!r}")
-        bad = sorted(set(e) - _ENC_KEYS)
-        if bad:
-            raise MeasurementError(f"{we}: unknown key(s) {bad}; allowed for kind 'quadrature': {sorted(_ENC_KEYS)}")
+        e = encoder_table(enc[ch], we, _ENC_KEYS, " for kind 'quadrature'")
         lines = e.get("lines")
         if isinstance(lines, bool) or not isinstance(lines, int) or lines < 1:
             raise MeasurementError(f"{we}: 'lines' must be an integer >= 1 (pulses per revolution), got {lines!r}")

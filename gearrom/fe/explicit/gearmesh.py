@@ -145,7 +145,7 @@ def _projected(mesh, exact: np.ndarray):
 
 
 def _mesh(pair, i, outline, outline_size, body_size, grading, algo, blossom, smooth):
-    from gearrom.fe.mesh2d import gmsh_session, surface_elements
+    from gearrom.fe.mesh2d import add_bore_surface, gmsh_session, surface_elements, threshold_field
 
     rb = 0.5 * pair.gears[i].bore_diameter
     with gmsh_session(f"quadgear{i}") as gmsh:
@@ -153,23 +153,10 @@ def _mesh(pair, i, outline, outline_size, body_size, grading, algo, blossom, smo
         pts = [geo.addPoint(x, y, 0.0) for x, y in outline]
         lines = [geo.addLine(pts[k], pts[(k + 1) % len(pts)]) for k in range(len(pts))]
         outer = geo.addCurveLoop(lines)
-        c0 = geo.addPoint(0, 0, 0)
-        q = [geo.addPoint(rb * math.cos(a), rb * math.sin(a), 0) for a in np.arange(4) * math.pi / 2]
-        arcs = [geo.addCircleArc(q[n], c0, q[(n + 1) % 4]) for n in range(4)]
-        hole = geo.addCurveLoop(arcs)
-        geo.addPlaneSurface([outer, hole])
-        geo.synchronize()
-        f = gmsh.model.mesh.field
-        dist = f.add("Distance")
-        f.setNumbers(dist, "CurvesList", lines)
-        f.setNumber(dist, "Sampling", 4)
-        thr = f.add("Threshold")
-        f.setNumber(thr, "InField", dist)
-        f.setNumber(thr, "SizeMin", 2 * outline_size)      # halved by the quad subdivision below
-        f.setNumber(thr, "SizeMax", 2 * body_size)
-        f.setNumber(thr, "DistMin", 0.5 * outline_size)
-        f.setNumber(thr, "DistMax", grading)
-        f.setAsBackgroundMesh(thr)
+        arcs = add_bore_surface(geo, outer, rb)
+        # sizes doubled: the quad subdivision below halves them
+        thr = threshold_field(gmsh, lines, 2 * outline_size, 2 * body_size, 0.5 * outline_size, grading, sampling=4)
+        gmsh.model.mesh.field.setAsBackgroundMesh(thr)
         for opt, val in (("Mesh.MeshSizeExtendFromBoundary", 0), ("Mesh.MeshSizeFromPoints", 0),
                          ("Mesh.MeshSizeFromCurvature", 0), ("Mesh.Algorithm", algo),
                          ("Mesh.RecombineAll", 1), ("Mesh.RecombinationAlgorithm", blossom),

@@ -27,15 +27,7 @@ def box_hex8(lx: float, ly: float, lz: float, nx: int, ny: int, nz: int):
     """Structured Hex8 mesh of [0,lx] x [0,ly] x [0,lz]; node (i,j,k) = (k (ny+1) + j) (nx+1) + i."""
     if min(nx, ny, nz) < 1:
         raise ConfigError(f"box_hex8 needs nx, ny, nz >= 1, got {nx}, {ny}, {nz}")
-    xs, ys, zs = (np.linspace(0, lx, nx + 1), np.linspace(0, ly, ny + 1), np.linspace(0, lz, nz + 1))
-    Z, Y, X = np.meshgrid(zs, ys, xs, indexing="ij")
-    nodes = np.column_stack([X.ravel(), Y.ravel(), Z.ravel()])
-    k, j, i = np.meshgrid(np.arange(nz), np.arange(ny), np.arange(nx), indexing="ij")
-    sx, sxy = nx + 1, (nx + 1) * (ny + 1)
-    n0 = (k * sxy + j * sx + i).ravel()
-    bottom = [n0, n0 + 1, n0 + sx + 1, n0 + sx]
-    elements = np.column_stack(bottom + [b + sxy for b in bottom])
-    return nodes, elements
+    return grid_hex8(np.linspace(0, lx, nx + 1), np.linspace(0, ly, ny + 1), np.linspace(0, lz, nz + 1))
 
 
 def annulus_q4(r_in: float, r_out: float, nr: int, nt: int, center=(0.0, 0.0)):
