@@ -9,9 +9,8 @@ from pathlib import Path
 import numpy as np
 
 from gearrom.errors import ConfigError, ModelError, RunInterrupted
-from gearrom.fe.explicit.geometry import (color_elements, element_geometry, element_max_eigenvalue,
-                                          element_max_eigenvalue_full, full_integration_data,
-                                          hourglass_coefficients, nodal_omega2)
+from gearrom.fe.explicit.elements import element_type
+from gearrom.fe.explicit.geometry import color_elements, nodal_omega2
 from gearrom.fe.explicit.loop import (CONTACT_ARRAYS, ELEMENT_ARRAYS, LOAD_ARRAYS, NE_OUT, NODE_ARRAYS, OUTPUT_ARRAYS,
                                       REFERENCE_ARRAYS, STATE_ARRAYS, ramp, run_loop_parallel, run_loop_serial)
 from gearrom.fe.explicit.model import ExplicitModel
@@ -48,23 +47,16 @@ def prepare(model: ExplicitModel, safety: float = 0.9, max_candidates: int = 8) 
     mat = model.material
     lam, mu = mat.lame
     conn0 = model.elements
-    B, V0, gamma, me = element_geometry(X, conn0, model.thickness)
-    khg, chg = hourglass_coefficients(B, V0, lam, mu, mat.rho, model.hourglass_stiffness,
-                                      model.hourglass_viscosity)
+    ne, nen = conn0.shape
+    etype = element_type(dim, nen, model.integration)
+    el = etype.precompute(X, conn0, model.thickness, lam, mu, mat.rho, model.hourglass_stiffness,
+                          model.hourglass_viscosity)
+    B, V0, gamma, khg, chg, Bg, Wg, lam_e = el.B, el.V0, el.gamma, el.khg, el.chg, el.Bg, el.Wg, el.lam_max
     mass = np.zeros(n)
-    np.add.at(mass, conn0, mat.rho * me)
+    np.add.at(mass, conn0, mat.rho * el.me)
     if np.any(mass <= 0):
         raise ModelError(f"node {int(np.argmin(mass))} belongs to no element (zero mass)")
-    ne, nen = conn0.shape
-    full = np.full(ne, model.integration == "full", np.uint8)
-    if full.any():
-        Bg, Wg = full_integration_data(X, conn0, model.thickness)
-        lam_e = element_max_eigenvalue_full(Bg, Wg, lam, mu)
-        khg[:] = 0.0
-        chg[:] = 0.0
-    else:
-        Bg, Wg = np.zeros((ne, 1, nen, dim)), np.zeros((ne, 1))
-        lam_e = element_max_eigenvalue(B, V0, gamma, lam, mu, khg)
+    full = np.full(ne, el.full, np.uint8)
     node_w2 = nodal_omega2(conn0, lam_e, mass)
     color = color_elements(conn0, n)
     order = np.argsort(color, kind="stable")
