@@ -55,7 +55,8 @@ def run(name: str, out: Path) -> dict:
 
 
 def differences(a, b, path: str = "", rtol: float = 1e-6, atol: float = 1e-9) -> list[str]:
-    """Where two JSON values differ beyond numerical noise (floats within ``rtol``/``atol``)."""
+    """Where two JSON values differ beyond numerical noise (floats within ``rtol``/``atol``; file paths by
+    their file name, as the checkout's location differs)."""
     if isinstance(a, dict) and isinstance(b, dict):
         out = []
         for k in sorted(set(a) | set(b)):
@@ -70,6 +71,8 @@ def differences(a, b, path: str = "", rtol: float = 1e-6, atol: float = 1e-9) ->
         if len(a) != len(b):
             return [f"{path}: length {len(a)} vs {len(b)}"]
         return [d for i, (x, y) in enumerate(zip(a, b)) for d in differences(x, y, f"{path}[{i}]", rtol, atol)]
+    if isinstance(a, str) and isinstance(b, str) and "/" in a and "/" in b:  # file paths: the checkout differs
+        return [] if Path(a).name == Path(b).name else [f"{path}: {a!r} vs {b!r}"]
     if isinstance(a, bool) or isinstance(b, bool) or not isinstance(a, (int, float)) or not isinstance(b, (int, float)):
         return [] if a == b else [f"{path}: {a!r} vs {b!r}"]
     if math.isnan(a) and math.isnan(b):

@@ -31,3 +31,5 @@ def test_comparison_sees_a_change_and_skips_volatile_keys():
     assert differences({"a": [1.001, {"b": "x"}], "wall_s": 3.0, "n": 2}, base) == [".a[0]: 1.001 vs 1.0"]
     assert differences({"a": [1.0, {"b": "y"}], "n": 2, "wall_s": 3.0}, base) == [".a[1].b: 'y' vs 'x'"]
     assert differences({"a": [1.0], "n": 2}, base) == [".a: length 1 vs 2"]
+    assert differences({"f": "/x/y/run.json"}, {"f": "/z/run.json"}) == []
+    assert differences({"f": "/x/y/run.json"}, {"f": "/x/y/other.json"}) == [".f: '/x/y/run.json' vs '/x/y/other.json'"]
