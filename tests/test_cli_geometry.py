@@ -6,6 +6,7 @@ import json
 import pytest
 
 from gearrom.cli import main
+from gearrom.config import bundled_names
 
 
 def test_json_has_required_keys(capsys):
@@ -39,3 +40,10 @@ def test_bad_input_one_line_error(tmp_path, capsys):
     assert main(["geometry", str(bad)]) == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "missing section [input_gear]" in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize("name", bundled_names())
+def test_every_bundled_config_passes_the_geometry_checks(name, capsys):
+    """A new user's first command works on every bundled config (feasible geometry, no undercut)."""
+    assert main(["geometry", name, "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["config"] == name
