@@ -61,15 +61,14 @@ def run(args: argparse.Namespace) -> int:
     model = build_rig(cfg)
     res = campbell(model, rpm, fmax=args.fmax, min_share=args.min_share)
     modes = modal_analysis(model, float(rpm[0]), fmax=res.freqs.max() * 1.001)
-    out = {**res.to_json(), "modes": modes.table()}
+    # all arrays included: the file reads back with CampbellResult.load
+    out = {**res.to_json(), "freqs_Hz": res.freqs.tolist(), "mesh_share": res.mesh_share.tolist(),
+           "modes": modes.table()}
     if args.json:
         prepare_output(args.json).write_text(json.dumps(out, indent=1) + "\n")
     if args.plot:
-        import matplotlib.pyplot as plt
-
         fig = res.plot(args.fmax)
         fig.savefig(prepare_output(args.plot), dpi=120)
-        plt.close(fig)
     lines = [f"campbell {cfg.name}: {len(modes.freqs)} modes below {res.freqs.max():.0f} Hz at {rpm[0]:.0f} rpm",
              f"  {'mode':>4s} {'f [Hz]':>9s} {'zeta':>6s} {'mesh E':>7s}  dominant DOFs"]
     for m in modes.table():

@@ -73,12 +73,9 @@ def run(args: argparse.Namespace) -> int:
                                  args.torque, samples_per_mesh=args.samples_per_mesh)
     out.mkdir(parents=True, exist_ok=True)
     res.save(out / "runup.nc")
-    import matplotlib.pyplot as plt
-
     fig = res.plot(compare=cmp)
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=120)
-    plt.close(fig)
     write_bytes_atomic(buf.getvalue(), out / "runup.png")
     summary = {"config": cfg.name, **res.metadata, "comparison_with_stepped_sweep": cmp}
     write_text_atomic(json.dumps(summary, indent=1, default=float) + "\n", out / "runup_summary.json")

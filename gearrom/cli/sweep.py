@@ -118,12 +118,9 @@ def run(args: argparse.Namespace) -> int:
     res.save(args.out / "sweep.nc")
     summary = res.summary_json()
     write_text_atomic(json.dumps(summary, indent=1) + "\n", args.out / "summary.json")
-    import matplotlib.pyplot as plt
-
     for name, fig in (("waterfall.png", res.plot()), ("gmf_vs_speed.png", res.plot_gmf())):
         buf = io.BytesIO()
         fig.savefig(buf, format="png", dpi=120)
-        plt.close(fig)
         write_bytes_atomic(buf.getvalue(), args.out / name)
     n_loss = sum(s["contact_loss"] for s in res.summary)
     worst = max(res.summary, key=lambda s: s["dte_ptp_um"])

@@ -217,9 +217,6 @@ def run(args: argparse.Namespace) -> int:
             sys.stdout.write(f"  repair: {rep['where']}, channel {rep['channel']!r}, t={rep['t_s']:.9g} s: "
                              f"{rep['kind']}: {rep['detail']}\n")
     if args.plot:
-        import matplotlib.pyplot as plt
-
         fig = res.plot()
         fig.savefig(prepare_output(args.plot), dpi=120)
-        plt.close(fig)
     return 0

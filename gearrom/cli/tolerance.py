@@ -75,12 +75,9 @@ def run(args: argparse.Namespace) -> int:
     summary = res.summary_json()
     summary["wall_s"] = wall
     write_text_atomic(json.dumps(summary, indent=1, default=float) + "\n", out / "tolerance_summary.json")
-    import matplotlib.pyplot as plt
-
     fig = res.plot()
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=120)
-    plt.close(fig)
     write_bytes_atomic(buf.getvalue(), out / "tolerance.png")
     top = ", ".join(f"{n} ({v:.2f})" for n, v in res.sensitivity("gmf1")[:3])
     sys.stdout.write(f"tolerance {cfg.name}: {args.samples} samples x {len(rpms)} speeds in {wall:.1f} s wall "

@@ -309,12 +309,9 @@ class MeshExcitation:
     # ------------------------------------------------------------------ plot
     def plot(self, torque: float | None = None):
         """Stiffness, STE and load share over one mesh period (at ``torque``, default all torques)."""
-        import matplotlib
+        from gearrom.plotting import subplots
 
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-
-        fig, axes = plt.subplots(3, 1, figsize=(7, 8), sharex=True)
+        fig, axes = subplots(3, 1, figsize=(7, 8), sharex=True)
         deg = np.degrees(self.theta)
         rows = range(self.n_torque) if torque is None else [int(np.argmin(abs(self.torque - torque)))]
         for j in rows:

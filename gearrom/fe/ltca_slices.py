@@ -112,14 +112,11 @@ class HelicalSliceLTCA(SpurLTCA):
 
 def plot_contact_pattern(result: PositionResult, pair):
     """Contact pattern of one helical position: pressure over face width x roll length (scatter)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from gearrom.plotting import subplots
 
     z = getattr(result, "z", np.zeros_like(result.roll1))
     on = result.force_c > 0
-    fig, ax = plt.subplots(figsize=(7, 4))
+    fig, ax = subplots(figsize=(7, 4))
     ax.scatter(z[~on] * 1e3, result.roll1[~on] * 1e3, s=2, c="0.85")
     sc = ax.scatter(z[on] * 1e3, result.roll1[on] * 1e3, s=8, c=result.pressure[on] * 1e-6, cmap="viridis")
     fig.colorbar(sc, ax=ax, label="pressure [MPa]")

@@ -174,12 +174,9 @@ class StiffnessResult:
 
     def plot(self):
         """STE, stiffness, load share and pressure over the mesh period (all torques)."""
-        import matplotlib
+        from gearrom.plotting import subplots
 
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-
-        fig, ax = plt.subplots(4, 1, figsize=(7, 10), sharex=True)
+        fig, ax = subplots(4, 1, figsize=(7, 10), sharex=True)
         deg = np.degrees(self.theta)
         for j, tq in enumerate(self.torque):
             lab = f"{tq:.4g} N m"
@@ -207,12 +204,9 @@ class StiffnessResult:
             from gearrom.errors import ModelError
 
             raise ModelError("no contact pattern in this result (spur pair, or a result saved without one)")
-        import matplotlib
+        from gearrom.plotting import subplots
 
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-
-        fig, ax = plt.subplots(figsize=(7, 4))
+        fig, ax = subplots(figsize=(7, 4))
         env = self.pattern[j].max(axis=0) * 1e-6
         im = ax.pcolormesh(self.pattern_z * 1e3, self.pattern_roll * 1e3, env.T, cmap="viridis", shading="flat")
         fig.colorbar(im, ax=ax, label="largest contact pressure over the cycle [MPa]")

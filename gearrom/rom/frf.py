@@ -88,15 +88,12 @@ def gmf_estimate(model: Drivetrain, rpms, torque_out: float | None = None, order
 def plot_transfer(model: Drivetrain, rpm_in: float, torque_out: float | None = None, fmax: float = 10e3,
                   n: int = 800):
     """Bode magnitude of DTE (sensor, clutch) and mesh deflection per unit STE, with GMF orders marked."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from gearrom.plotting import subplots
 
     sys = state_space(model, rpm_in, torque_out)
     f = np.linspace(1.0, fmax, n)
     resp = np.asarray(sys.frequency_response(2 * math.pi * f).complex).reshape(sys.noutputs, 1, n)
-    fig, ax = plt.subplots(figsize=(8, 4.5))
+    fig, ax = subplots(figsize=(8, 4.5))
     for j, name in enumerate(sys.output_labels):
         ax.semilogy(f, np.abs(resp[j, 0]), lw=0.9, label=f"{name} / STE")
     gmf = model.pair.z[0] * rpm_in / 60

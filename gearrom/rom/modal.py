@@ -56,12 +56,9 @@ class ModalResult:
 
     def plot(self):
         """Natural frequencies with their mesh strain-energy share."""
-        import matplotlib
+        from gearrom.plotting import subplots
 
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-
-        fig, ax = plt.subplots(figsize=(8, 4))
+        fig, ax = subplots(figsize=(8, 4))
         ax.bar(np.arange(1, len(self.freqs) + 1), self.mesh_share, color="C0")
         for i, f in enumerate(self.freqs):
             ax.text(i + 1, self.mesh_share[i] + 0.01, f"{f:.0f}", rotation=90, ha="center", va="bottom", fontsize=7)
@@ -173,30 +170,51 @@ class CampbellResult:
         return cls(d["config"], np.array(d["rpm_in"]), np.array(d["freqs_Hz"]), np.array(d["mesh_share"]),
                    d["orders"], d["crossings"])
 
-    def plot(self, fmax: float | None = None):
-        """Campbell diagram: modes (colour = mesh energy share), order lines, crossing markers."""
-        import matplotlib
+    def plot(self, fmax: float | None = None, min_share: float = 0.01):
+        """Campbell diagram: mode frequencies [Hz] over input speed [rpm], GMF and shaft-order lines.
 
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
+        The modes that the mesh excites (mesh strain-energy share of at least ``min_share`` at some
+        speed) are drawn thick, coloured by that share and named; the others thin and grey. Crossings
+        of the order lines with the modes that matter are marked.
+        """
+        from matplotlib import colormaps
+        from matplotlib.cm import ScalarMappable
+        from matplotlib.colors import Normalize
 
-        fig, ax = plt.subplots(figsize=(8, 6))
-        fmax = fmax or 1.1 * max(v for v in self.orders.values()) * self.rpm[-1] / 60
+        from gearrom.plotting import subplots
+
+        gmf = [v for k, v in self.orders.items() if k.startswith("GMF")] or list(self.orders.values())
+        fmax = fmax or 1.05 * max(gmf) * self.rpm[-1] / 60
+        fig, ax = subplots(figsize=(8, 6))
+        cmap = colormaps["plasma_r"]
+        top = max(float(self.mesh_share.max()), min_share, 1e-12)
         for j in range(self.freqs.shape[1]):
             if self.freqs[:, j].min() > fmax:
                 continue
-            sc = ax.scatter(self.rpm, self.freqs[:, j], c=self.mesh_share[:, j], s=6, cmap="viridis", vmin=0, vmax=1)
+            share = float(self.mesh_share[:, j].max())
+            if share >= min_share:
+                ax.plot(self.rpm, self.freqs[:, j], "-", lw=2.5, color=cmap(0.15 + 0.85 * share / top))
+                ax.annotate(f"mode {j + 1}", (self.rpm[0], self.freqs[0, j]), fontsize=7, xytext=(3, 3),
+                            textcoords="offset points")
+            else:
+                ax.plot(self.rpm, self.freqs[:, j], "-", lw=0.6, color="0.7")
+        styles = {"GMF1": ("C0", "--"), "GMF2": ("C1", "--"), "GMF3": ("C2", "--"), "input shaft": ("k", ":"),
+                  "output shaft": ("C3", ":")}
         for name, o in self.orders.items():
-            ax.plot(self.rpm, o * self.rpm / 60, "--", lw=0.8, label=name)
+            col, ls = styles.get(name, ("k", "-."))
+            ax.plot(self.rpm, o * self.rpm / 60, ls, color=col, lw=1.2, label=f"{name} (order {o:.4g})")
         for c in self.crossings:
-            if c["frequency_Hz"] <= fmax:
-                ax.plot(c["rpm_in"], c["frequency_Hz"], "rx", ms=5)
+            if c.get("mesh_energy_share", 1.0) >= min_share and c["frequency_Hz"] <= fmax:
+                ax.plot(c["rpm_in"], c["frequency_Hz"], "kx", ms=6, mew=1.5)
+        fig.colorbar(ScalarMappable(cmap=cmap, norm=Normalize(0, top)), ax=ax,
+                     label="mesh strain-energy share [-] (thick lines)")
         ax.set_ylim(0, fmax)
+        ax.set_xlim(self.rpm[0], self.rpm[-1])
         ax.set_xlabel("input speed [rpm]")
         ax.set_ylabel("frequency [Hz]")
-        ax.set_title(f"Campbell diagram {self.config} (colour: mesh strain-energy share)", fontsize=9)
-        fig.colorbar(sc, ax=ax, label="mesh energy share")
-        ax.legend(fontsize=7, loc="lower right")
+        ax.set_title(f"{self.config}: Campbell diagram (thick: >= {100 * min_share:g} % mesh energy; "
+                     "x: their crossings)", fontsize=9)
+        ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=5)
         fig.tight_layout()
         return fig
 

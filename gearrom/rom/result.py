@@ -149,12 +149,9 @@ class DynamicRun:
 
     def plot(self):
         """DTE (sensor and clutch side) with the STE, and the mesh force."""
-        import matplotlib
+        from gearrom.plotting import subplots
 
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-
-        fig, ax = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
+        fig, ax = subplots(2, 1, figsize=(8, 6), sharex=True)
         t = self.time * 1e3
         for side, v in self.dte.items():
             ax[0].plot(t, (v - v.mean()) * 1e6, lw=0.8, label=f"DTE {side} side")

@@ -407,29 +407,42 @@ class SweepResult:
         return {"config": self.config, "side": "sensor", **{k: self.metadata[k] for k in
                 ("config_digest", "torque_out_Nm", "excitation") if k in self.metadata}, "speeds": self.summary}
 
-    def plot(self, channel: str = "dte_sensor", fmax: float | None = None):
-        """Waterfall (colour map) of the DTE spectrum vs frequency and speed, with GMF orders 1-3."""
-        import matplotlib
+    def plot(self, channel: str = "dte_sensor", fmax: float | None = None, decades: float = 3.0):
+        """Waterfall of the DTE spectrum over frequency [Hz] and input speed [rpm], GMF harmonics 1-3 and
+        both shaft orders drawn and labelled.
 
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
+        The colour scale (logarithmic, um) spans the data: from its largest line down ``decades``
+        decades, or to the median amplitude where that is higher (the noise floor of the spectra
+        then stays dark instead of taking most of the scale).
+        """
         from matplotlib.colors import LogNorm
 
+        from gearrom.plotting import subplots
+
+        z1, z2 = self.z
         orders, amp = self.spectrum(channel)
-        f = orders[None, :] * self.rpm[:, None] / 60
-        fmax = fmax or 3.5 * self.z[0] * self.rpm.max() / 60
-        fig, ax = plt.subplots(figsize=(8, 6))
-        a = np.maximum(amp * 1e6, 1e-4)
-        if len(self.rpm) > 1:
+        a = amp * 1e6
+        fmax = fmax or 3.4 * z1 * self.rpm.max() / 60
+        fig, ax = subplots(figsize=(8, 5.5))
+        positive = a[a > 0]
+        if len(self.rpm) > 1 and positive.size:
+            vmax = float(positive.max())
+            vmin = max(vmax * 10.0 ** -decades, float(np.median(positive)))
             rp = np.repeat(self.rpm[:, None], len(orders), axis=1)
-            pc = ax.pcolormesh(f, rp, a, shading="nearest", norm=LogNorm(vmin=max(a.max() * 1e-4, 1e-4), vmax=a.max()))
-            fig.colorbar(pc, ax=ax, label="DTE amplitude [um]")
-        for m in (1, 2, 3):
-            ax.plot(m * self.z[0] * self.rpm / 60, self.rpm, "w--", lw=0.7)
+            pc = ax.pcolormesh(orders[None, :] * self.rpm[:, None] / 60, rp, np.clip(a, vmin, None), shading="nearest",
+                               norm=LogNorm(vmin=vmin, vmax=vmax))
+            fig.colorbar(pc, ax=ax, label=f"DTE amplitude ({channel}) [um]")
+        for m, c in zip((1, 2, 3), ("w", "lightgrey", "silver")):
+            ax.plot(m * z1 * self.rpm / 60, self.rpm, "--", color=c, lw=0.8, label=f"GMF x{m} (order {m * z1})")
+        for o, lab, c in ((1.0, "input shaft (order 1)", "orange"), (z1 / z2, f"output shaft (order {z1}/{z2})", "red")):
+            ax.plot(o * self.rpm / 60, self.rpm, ":", color=c, lw=1.2, label=lab)
+        ax.legend(fontsize=7, loc="lower right", facecolor="0.85")
+        torque = self.metadata.get("torque_out_Nm")
         ax.set_xlim(0, fmax)
         ax.set_xlabel("frequency [Hz]")
         ax.set_ylabel("input speed [rpm]")
-        ax.set_title(f"DTE spectrum ({channel}) vs speed, {self.config}; dashed: GMF x1-3", fontsize=9)
+        ax.set_title(f"{self.config}: DTE waterfall ({len(self.rpm)} speeds" + (f", {torque:g} N m)" if torque else ")"),
+                     fontsize=9)
         fig.tight_layout()
         return fig
 
@@ -442,13 +455,10 @@ class SweepResult:
     def plot_gmf(self, linear: np.ndarray | None = None):
         """GMF harmonic amplitudes vs speed (time domain), with the linear state-space estimate overlaid."""
         linear = self.linear_gmf() if linear is None else linear
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
+        from gearrom.plotting import subplots
 
         g = np.array([s["gmf_amplitude_um"] for s in self.summary])
-        fig, ax = plt.subplots(figsize=(8, 4.5))
+        fig, ax = subplots(figsize=(8, 4.5))
         for m in range(g.shape[1]):
             line, = ax.plot(self.rpm, g[:, m], "o-", ms=2.5, lw=0.8, label=f"GMF x{m + 1} time domain")
             if linear is not None:

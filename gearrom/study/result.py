@@ -122,13 +122,10 @@ class ToleranceResult:
 
     def plot(self):
         """P5-P95 bands and P50 of DTE RMS and GMF 1-3 vs speed, and the sensitivity ranking (GMF 1)."""
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
+        from gearrom.plotting import subplots
 
         p = self.percentiles()
-        fig, axes = plt.subplots(1, 3, figsize=(14, 4.5), gridspec_kw={"width_ratios": [1, 1, 0.8]})
+        fig, axes = subplots(1, 3, figsize=(14, 4.5), gridspec_kw={"width_ratios": [1, 1, 0.8]})
         ax = axes[0]
         ax.fill_between(self.rpm, p["dte_rms_um"][0], p["dte_rms_um"][2], alpha=0.3, label="DTE RMS P5-P95")
         ax.plot(self.rpm, p["dte_rms_um"][1], label="DTE RMS P50")

@@ -101,16 +101,13 @@ class RunupResult:
     def plot(self, max_order: float | None = None, compare: dict | None = None):
         """Colour map of the DTE order spectrum vs speed; with ``compare`` (see :func:`compare_with_sweep`),
         a second panel with GMF x1-3 of the run-up against the stepped sweep."""
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
+        from gearrom.plotting import subplots
         from matplotlib.colors import LogNorm
 
         z1 = self.z[0]
         max_order = max_order or 3.5 * z1
         sel = self.orders <= max_order
-        fig, axes = plt.subplots(1, 2 if compare else 1, figsize=(13 if compare else 8, 5.5), squeeze=False)
+        fig, axes = subplots(1, 2 if compare else 1, figsize=(13 if compare else 8, 5.5), squeeze=False)
         ax = axes[0, 0]
         a = np.maximum(self.amplitude_um[:, sel], 1e-5)
         pc = ax.pcolormesh(self.orders[sel], self.rpm, a, shading="nearest",

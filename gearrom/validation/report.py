@@ -221,13 +221,10 @@ class ValidationReport:
 
     def plot(self):
         """TE vs input angle (steady window, in mesh periods) and the TE spectra over mesh order."""
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
+        from gearrom.plotting import subplots
 
         n = len(self.speeds)
-        fig, axes = plt.subplots(n, 2, figsize=(11, 3.2 * n), squeeze=False)
+        fig, axes = subplots(n, 2, figsize=(11, 3.2 * n), squeeze=False)
         for row, s in zip(axes, self.speeds):
             rom_label = "exudyn ROM" if s.rom_meta.get("rom_model") == "exudyn" else "pair ROM"
             z1 = s.rom_meta.get("z1") or int(round(2 * math.pi * s.rom_meta["mesh_frequency_Hz"] / (s.rpm_in * 2 * math.pi / 60)))

@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import json
 
-import pytest
 
 from gearrom.calibrate import DiagnosisResult
 from gearrom.testing import Injected
@@ -58,21 +57,3 @@ def test_cli_missing_torque_names_the_field(dataset, tmp_path, capsys):
 def test_cli_missing_file(tmp_path, capsys):
     assert main(["diagnose", "thesis-helical", str(tmp_path / "nope.json")]) == 2
     assert "nope.json" in capsys.readouterr().err
-
-
-@pytest.mark.slow
-def test_closed_loop_notebook_runs():
-    """notebooks/closed_loop.ipynb runs top to bottom and finds both injected effects (slow: the same
-    two-effect case runs in the suite as test_two_effects_at_once)."""
-    import matplotlib
-
-    from pathlib import Path
-
-    matplotlib.use("Agg")
-    nb = json.loads((Path(__file__).resolve().parents[2] / "notebooks" / "closed_loop.ipynb").read_text())
-    ns: dict = {}
-    for cell in nb["cells"]:
-        if cell["cell_type"] == "code":
-            exec(compile("".join(cell["source"]), "closed_loop.ipynb", "exec"), ns)  # noqa: S102 - our notebook
-    found = {(e["effect"], e["target"]) for e in ns["res"].effects}
-    assert {("eccentricity", "input_gear"), ("encoder_eccentricity", "output_encoder")} <= found

@@ -112,13 +112,10 @@ class ExplicitResult:
 
     def plot(self, path: str | Path | None = None):
         """Energies and reference speeds vs time; return the matplotlib Figure (saved if ``path``)."""
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
+        from gearrom.plotting import subplots
 
         nr = self.theta.shape[1]
-        fig, axes = plt.subplots(2 if nr else 1, 1, figsize=(8, 6 if nr else 3.5), squeeze=False)
+        fig, axes = subplots(2 if nr else 1, 1, figsize=(8, 6 if nr else 3.5), squeeze=False)
         ax = axes[0, 0]
         for k, name in enumerate(ENERGY_NAMES):
             col = self.energies[:, k]
