@@ -73,7 +73,11 @@ class ExplicitResult:
 
     @property
     def energy_error(self) -> float:
-        """Largest |balance error| relative to the largest of kinetic, internal, external work."""
+        """Largest |balance error| relative to the largest of kinetic, internal, external work.
+
+        The kinetic energy includes the rigid rotation of the gears, which makes this ratio small for
+        a running pair; the validation gate (:func:`gearrom.validation.gates.record_gates`) divides by
+        the peak strain + hourglass + contact energy instead, the energy the vibration is made of."""
         ref = max(np.abs(self.energy("kinetic")).max(), np.abs(self.energy("internal")).max(),
                   np.abs(self.energy("external_work")).max(), 1e-300)
         return float(np.abs(self.energy("balance_error")).max() / ref)
