@@ -192,6 +192,11 @@ def annotate_unobservable(doc: dict) -> None:
                 if note not in c["causes"]:
                     c["causes"].append(note)
                 c["observable"] = False
+            elif c["after_um"] <= 1.1 * level and c["found"]:
+                note = (f"the error after ({c['after_um']:.3g} um) is the clean record's level ({level:.3g} um): what "
+                        "is left is the two mesh models' mismatch, which no library effect removes")
+                if note not in c["causes"]:
+                    c["causes"].append(note)
 
 
 def main(argv=None) -> int:
