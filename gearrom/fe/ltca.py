@@ -27,6 +27,7 @@ from __future__ import annotations
 import logging
 import math
 import warnings
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -49,6 +50,10 @@ EDGE_CANDIDATE_SPAN = 0.1e-3
 EDGE_PHI_WARN = 0.5
 """A loaded last grid point on the rounding beyond this fraction of the rounding's angle is an error
 (the contact may run off the grid, which covers ``compliance.EDGE_GRID_FRACTION`` of it)."""
+#: candidate geometry per compliance set (weak key: the input gear's compliances), LTCA geometry and
+#: position (see :meth:`SpurLTCA._geometry`); a store holds at most GEOMETRY_CACHE_ENTRIES positions
+_GEOMETRY: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+GEOMETRY_CACHE_ENTRIES = 4096
 
 _GX, _GW = np.polynomial.legendre.leggauss(8)
 _GX, _GW = 0.5 * (_GX + 1), 0.5 * _GW
@@ -181,7 +186,7 @@ class SpurLTCA:
         return (InvoluteFrame((0.0, -rb1), rb1, (0.0, 1.0), (1.0, 0.0), L1P),
                 InvoluteFrame((self.T, rb2), rb2, (0.0, -1.0), (-1.0, 0.0), L2P))
 
-    def _edge_candidates(self, g: int, L1P: float, L2P: float, base_gap: float):
+    def _edge_candidates(self, g: int, L1P: float, L2P: float):
         """Contact of the tip edge rounding of gear ``g`` with the mate's involute (exact plane geometry).
 
         The rounding's point closest to the mate's involute is found exactly (its centre projected on
@@ -189,13 +194,14 @@ class SpurLTCA:
         candidates sit there and at multiples of the grid spacing on either side along the rounding
         (compliances interpolated between grid points), so the first touch and the gap function
         ``s^2 / 2R`` of the small rounding radius are not sampled at arbitrary grid points. Each
-        candidate is projected on the mate's involute (the master). Returns (i1, w1, i2, w2, gap, lam,
-        roll1, end, u_min) or None (``u_min``: the first candidate's flank coordinate on the rounding [m],
-        the involute-involute candidates stop half a spacing before it); ``gap`` is the normal gap [m], ``lam`` the normal displacement of the
+        candidate is projected on the mate's involute (the master). Returns (i1, w1, i2, w2, d, lam,
+        roll1, end, u_min, Lf) or None (``u_min``: the first candidate's flank coordinate on the rounding [m],
+        the involute-involute candidates stop half a spacing before it; ``Lf``: the roll length of the
+        projection on the mate's involute [m]); ``d`` is the geometric normal gap [m] (the flank
+        modifications are added by :meth:`candidates`), ``lam`` the normal displacement of the
         contact per unit rigid approach along the line of action (1 when the master is the output
         gear's involute; the output gear's lever arm of the contact normal over r_b2 otherwise).
         """
-        pr = self.pair
         c, cm = self.c[g], self.c[1 - g]
         arc = self.arcs[g]
         h = c.spacing
@@ -229,25 +235,31 @@ class SpurLTCA:
         Us = (u - c.sigma[0]) / h
         io = np.minimum(np.floor(Us).astype(int), c.sigma.size - 2)
         wo = Us - io
-        L_own = np.full(u.size, arc.L_t)
-        gap = d + base_gap + profile_removal(pr, g, L_own) + profile_removal(pr, 1 - g, Lf)
         end = (u > u_hi - h) & (phi >= EDGE_PHI_WARN * arc.phi_full)
         if g == 1:
-            return im, wm, io, wo, gap, lam, Lf, end, float(u.min())
-        return io, wo, im, wm, gap, lam, np.sqrt(2 * c.rb * u), end, float(u.min())
+            return im, wm, io, wo, d, lam, Lf, end, float(u.min()), Lf
+        return io, wo, im, wm, d, lam, np.sqrt(2 * c.rb * u), end, float(u.min()), Lf
 
-    def candidates(self, theta: float, mesh_index: int = 0, window: float | None = None, only=None):
-        """Contact candidates per pair at ``theta``.
+    def _geometry_key(self) -> tuple:
+        """What the candidate geometry depends on besides the compliances and the position."""
+        return (type(self).__name__, self.c[1], self.T, self.L1_start, self.pb, self.L_tip, self.rounded, self.arcs,
+                self.n_inv, tuple(self.pair_range), self.pair.z, getattr(self, "dz", None))
 
-        Each entry: (pair, gear-1 grid indices, gear-2 grid indices, gear-2 interpolation weights,
-        gaps [m], input roll lengths [m], window-edge flags, smallest gap incl. the ideal point [m],
-        gear-1 interpolation weights, lambda, grid-end flags). A point of gear ``g`` at ``(i, w)`` lies at
-        ``sigma[i] + w * spacing``. The gaps are expressed as rigid approach along the line of action
-        that closes them (normal gap / lambda, see :meth:`_edge_candidates`); involute-involute
-        candidates have lambda = 1.
+    def _geometry(self, theta: float, mesh_index: int, window: float, only) -> list:
+        """The part of :meth:`candidates` that does not depend on the flank modifications, runout or pitch
+        deviations (candidate points, weights, lambdas, geometric gaps, roll lengths), per pair.
+
+        Kept per compliance set and position (:data:`_GEOMETRY`): LTCAs rebuilt with the same compliances
+        for another micro-geometry (:func:`gearrom.calibrate.microfe.with_micro`, tolerance studies)
+        reuse it and only add their gaps.
         """
+        store = _GEOMETRY.setdefault(self.c[0], {}).setdefault(self._geometry_key(), {})
+        key = (float(theta), int(mesh_index), float(window), None if only is None else tuple(only))
+        hit = store.get(key)
+        if hit is not None:
+            return hit
         pr, (c1, c2) = self.pair, self.c
-        W = window or self.window
+        W = window
         rb1, rb2 = c1.rb, c2.rb
         d = c1.spacing
         n1, n2 = self.n_inv
@@ -259,20 +271,14 @@ class SpurLTCA:
             L2P = self.T - L1P
             if L1P <= 0 or L2P <= 0:
                 continue
-            tooth = mesh_index - p
-            r1 = rot1 + p * self.period
-            extra = (pitch_removal(pr, 0, tooth) + pitch_removal(pr, 1, tooth)
-                     + runout_removal(pr, 0, r1) + runout_removal(pr, 1, r1 * pr.z[0] / pr.z[1]))
-            parts = []
             # tip edge roundings against the mate's involute (premature / prolonged contact)
-            edge_parts, u_stop = [], [np.inf, np.inf]
+            edges, u_stop = [], [np.inf, np.inf]
             for g in (1, 0):
                 if self.rounded[g]:
-                    e = self._edge_candidates(g, L1P, L2P, extra)
+                    e = self._edge_candidates(g, L1P, L2P)
                     if e is not None:
-                        i1, w1, i2, w2, gap, lam, roll, end, u_min = e
-                        edge_parts.append((i1, w1, i2, w2, gap, lam, roll, np.zeros(i1.size, bool), end))
-                        u_stop[g] = u_min - 0.5 * d
+                        edges.append((g, e))
+                        u_stop[g] = e[8] - 0.5 * d
             # involute against involute, around the ideal contact point on the line of action
             s1P, s2P = L1P**2 / (2 * rb1), L2P**2 / (2 * rb2)
             a = np.flatnonzero((np.abs(c1.sigma[:n1] - s1P) <= W) & (c1.sigma[:n1] <= u_stop[0]))
@@ -286,25 +292,65 @@ class SpurLTCA:
             s2 = c2.sigma[0] + (fa + w) * d
             keep = (np.sqrt(2 * rb2 * s2) <= self.L_tip[1] + 1e-12) & (s2 <= u_stop[1])
             a, fa, s2 = a[keep], fa[keep], s2[keep]
+            inv = None
             if a.size:
                 t = c1.sigma[a] - s1P
                 L1 = np.sqrt(2 * rb1 * c1.sigma[a])
                 L2 = np.sqrt(2 * rb2 * s2)
-                gap = (_drop(t, L1P, rb1, 1.0) + _drop(t, L2P, rb2, -1.0) + profile_removal(pr, 0, L1)
-                       + profile_removal(pr, 1, L2) + extra)
-                ones = np.ones(a.size)
-                parts.append((a, 0 * ones, fa, w * ones, gap, ones, L1, np.abs(t) >= W - 1.01 * d, ones < 0))
-            parts += edge_parts
-            if not parts:
+                inv = (a, fa, w, _drop(t, L1P, rb1, 1.0) + _drop(t, L2P, rb2, -1.0), L1, L2, np.abs(t) >= W - 1.01 * d)
+            if inv is None and not edges:
                 continue
-            i1, w1, i2, w2, gap, lam, roll, edge, end = (np.concatenate(x) for x in zip(*parts))
-            h = gap / lam
-            # the gap at the ideal contact point itself (t = 0) when it lies on both involutes
+            # the ideal contact point itself (t = 0) when it lies on both involutes
             on = (c1.sigma[0] <= s1P <= c1.sigma[n1 - 1] and L1P <= self.L_tip[0] and c2.sigma[0] <= s2P <= c2.sigma[n2 - 1]
                   and L2P <= self.L_tip[1])
+            out.append((int(p), mesh_index - p, rot1 + p * self.period, L1P, L2P, inv, edges, on))
+        if len(store) >= GEOMETRY_CACHE_ENTRIES:
+            store.clear()
+        store[key] = out
+        return out
+
+    def cached_compliance(self, theta: float, mesh_index: int, window: float, only, cands) -> np.ndarray:
+        """:meth:`compliance_matrix` of ``cands`` (the candidates at that position), kept with their geometry
+        (:meth:`_geometry`: it depends on the candidate points only); read-only."""
+        store = _GEOMETRY.setdefault(self.c[0], {}).setdefault(self._geometry_key(), {})
+        key = ("C", float(theta), int(mesh_index), float(window), None if only is None else tuple(only))
+        C = store.get(key)
+        if C is None:
+            C = self.compliance_matrix(cands)
+            C.flags.writeable = False
+            store[key] = C
+        return C
+
+    def candidates(self, theta: float, mesh_index: int = 0, window: float | None = None, only=None):
+        """Contact candidates per pair at ``theta``.
+
+        Each entry: (pair, gear-1 grid indices, gear-2 grid indices, gear-2 interpolation weights,
+        gaps [m], input roll lengths [m], window-edge flags, smallest gap incl. the ideal point [m],
+        gear-1 interpolation weights, lambda, grid-end flags). A point of gear ``g`` at ``(i, w)`` lies at
+        ``sigma[i] + w * spacing``. The gaps are expressed as rigid approach along the line of action
+        that closes them (normal gap / lambda, see :meth:`_edge_candidates`); involute-involute
+        candidates have lambda = 1.
+        """
+        pr = self.pair
+        out = []
+        for p, tooth, r1, L1P, L2P, inv, edges, on in self._geometry(theta, mesh_index, window or self.window, only):
+            extra = (pitch_removal(pr, 0, tooth) + pitch_removal(pr, 1, tooth)
+                     + runout_removal(pr, 0, r1) + runout_removal(pr, 1, r1 * pr.z[0] / pr.z[1]))
+            parts = []
+            if inv is not None:
+                a, fa, w, geo, L1, L2, edge = inv
+                gap = geo + profile_removal(pr, 0, L1) + profile_removal(pr, 1, L2) + extra
+                ones = np.ones(a.size)
+                parts.append((a, 0 * ones, fa, w * ones, gap, ones, L1, edge, ones < 0))
+            for g, (i1, w1, i2, w2, dist, lam, roll, end, _, Lf) in edges:
+                L_own = np.full(dist.size, self.arcs[g].L_t)
+                gap = dist + extra + profile_removal(pr, g, L_own) + profile_removal(pr, 1 - g, Lf)
+                parts.append((i1, w1, i2, w2, gap, lam, roll, np.zeros(i1.size, bool), end))
+            i1, w1, i2, w2, gap, lam, roll, edge, end = (np.concatenate(x) for x in zip(*parts))
+            h = gap / lam
             g0 = float(profile_removal(pr, 0, np.array([L1P]))[0] + profile_removal(pr, 1, np.array([L2P]))[0]
                        + extra) if on else np.inf
-            out.append((int(p), i1.astype(int), i2.astype(int), w2, h, roll, edge, min(g0, float(h.min())), w1, lam, end))
+            out.append((p, i1.astype(int), i2.astype(int), w2, h, roll, edge, min(g0, float(h.min())), w1, lam, end))
         return out
 
     def compliance_matrix(self, cands) -> np.ndarray:
@@ -340,7 +386,7 @@ class SpurLTCA:
             where = f" at theta = {math.degrees(theta):.4f} deg (mesh {mesh_index})"
             if not cands:
                 raise SolverError(f"contact not found{where}: no flank points of both gears lie near the line of action")
-            C = self.compliance_matrix(cands)
+            C = self.cached_compliance(theta, mesh_index, W, only, cands)
             h = np.concatenate([c[4] for c in cands])
             pid = np.concatenate([np.full(c[1].size, c[0]) for c in cands])
             roll = np.concatenate([c[5] for c in cands])

@@ -84,7 +84,7 @@ class HelicalSliceLTCA(SpurLTCA):
                 continue
             # pair index relative to theta's mesh cycle
             off = m_idx - mesh_index
-            C = self.compliance_matrix(cands)  # slice compliances (scaled in __init__)
+            C = self.cached_compliance(th, m_idx, self.window, only, cands)  # slice compliances (scaled in __init__)
             lead = self._lead_removal(z)
             h = np.concatenate([c[4] for c in cands]) / self.cosb + lead
             kin = min(kin, min(c[7] for c in cands) / self.cosb + lead)
