@@ -178,3 +178,31 @@ def test_result_roundtrip_and_excitation(cycle, tmp_path):
     assert ex.load_share.shape == (2, 64, cycle.pairs.size)
     fig = cycle.plot()
     assert len(fig.axes) == 4
+
+
+def test_ltca_rebuilt_for_other_flanks_reuses_only_the_geometry(pair, ltca):
+    """An LTCA rebuilt with the same compliances for another micro-geometry (tip relief, runout, pitch
+    deviations) reuses the candidate geometry and compliance blocks kept from the positions solved before,
+    and gives exactly what it gives with nothing kept: the kept part holds nothing the flank modifications
+    change (stale gaps would return the nominal STE, which the modifications move by micrometres)."""
+    from gearrom.fe import ltca as ltca_mod
+    from gearrom.fe.ltca import SpurLTCA
+
+    nominal = mesh_cycle(ltca, [120.0], 8)
+    assert ltca_mod._GEOMETRY.get(ltca.c[0]), "the nominal cycle kept its candidate geometry"
+    z1 = pair.z[0]
+    micro = [dataclasses.replace(g.micro, enabled=True, tip_relief=10e-6, tip_relief_start_diameter=pair.da[i] - 1.5e-3)
+             for i, g in enumerate(pair.gears)]
+    micro[0] = dataclasses.replace(micro[0], runout=8e-6, runout_phase=0.7,
+                                   pitch_deviations=tuple(5e-6 if k in (0, 1) else 0.0 for k in range(z1)))
+    modified = dataclasses.replace(pair, gears=tuple(dataclasses.replace(g, micro=m) for g, m in zip(pair.gears, micro)))
+
+    def cycle():
+        return mesh_cycle(SpurLTCA(modified, ltca.c, window=ltca.window, tol=ltca.tol), [120.0], 8)
+
+    reused = cycle()
+    ltca_mod._GEOMETRY.pop(ltca.c[0], None)
+    fresh = cycle()
+    np.testing.assert_array_equal(reused.ste, fresh.ste)
+    np.testing.assert_array_equal(reused.ste_kinematic, fresh.ste_kinematic)
+    assert np.max(np.abs(reused.ste - nominal.ste)) > 1e-6
