@@ -24,6 +24,7 @@ and STE never converge with mesh refinement.
 """
 from __future__ import annotations
 
+import functools
 import logging
 import math
 import warnings
@@ -54,6 +55,12 @@ EDGE_PHI_WARN = 0.5
 #: position (see :meth:`SpurLTCA._geometry`); a store holds at most GEOMETRY_CACHE_ENTRIES positions
 _GEOMETRY: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 GEOMETRY_CACHE_ENTRIES = 4096
+
+
+def _position_key(theta: float, mesh_index: int, window: float, only) -> tuple:
+    """Key of one position in a store of :data:`_GEOMETRY`."""
+    return float(theta), int(mesh_index), float(window), None if only is None else tuple(only)
+
 
 _GX, _GW = np.polynomial.legendre.leggauss(8)
 _GX, _GW = 0.5 * (_GX + 1), 0.5 * _GW
@@ -240,10 +247,13 @@ class SpurLTCA:
             return im, wm, io, wo, d, lam, Lf, end, float(u.min()), Lf
         return io, wo, im, wm, d, lam, np.sqrt(2 * c.rb * u), end, float(u.min()), Lf
 
-    def _geometry_key(self) -> tuple:
-        """What the candidate geometry depends on besides the compliances and the position."""
-        return (type(self).__name__, self.c[1], self.T, self.L1_start, self.pb, self.L_tip, self.rounded, self.arcs,
-                self.n_inv, tuple(self.pair_range), self.pair.z, getattr(self, "dz", None))
+    @functools.cached_property
+    def _positions(self) -> dict:
+        """This LTCA's store in :data:`_GEOMETRY`: keyed by what the candidate geometry depends on besides the
+        compliances and the position (taken at first use, when a subclass has set its own fields)."""
+        key = (type(self).__name__, self.c[1], self.T, self.L1_start, self.pb, self.L_tip, self.rounded, self.arcs,
+               self.n_inv, tuple(self.pair_range), self.pair.z, getattr(self, "dz", None))
+        return _GEOMETRY.setdefault(self.c[0], {}).setdefault(key, {})
 
     def _geometry(self, theta: float, mesh_index: int, window: float, only) -> list:
         """The part of :meth:`candidates` that does not depend on the flank modifications, runout or pitch
@@ -253,8 +263,7 @@ class SpurLTCA:
         for another micro-geometry (:func:`gearrom.calibrate.microfe.with_micro`, tolerance studies)
         reuse it and only add their gaps.
         """
-        store = _GEOMETRY.setdefault(self.c[0], {}).setdefault(self._geometry_key(), {})
-        key = (float(theta), int(mesh_index), float(window), None if only is None else tuple(only))
+        store, key = self._positions, _position_key(theta, mesh_index, window, only)
         hit = store.get(key)
         if hit is not None:
             return hit
@@ -312,8 +321,7 @@ class SpurLTCA:
     def cached_compliance(self, theta: float, mesh_index: int, window: float, only, cands) -> np.ndarray:
         """:meth:`compliance_matrix` of ``cands`` (the candidates at that position), kept with their geometry
         (:meth:`_geometry`: it depends on the candidate points only); read-only."""
-        store = _GEOMETRY.setdefault(self.c[0], {}).setdefault(self._geometry_key(), {})
-        key = ("C", float(theta), int(mesh_index), float(window), None if only is None else tuple(only))
+        store, key = self._positions, ("C", *_position_key(theta, mesh_index, window, only))
         C = store.get(key)
         if C is None:
             C = self.compliance_matrix(cands)
