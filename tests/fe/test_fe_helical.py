@@ -116,3 +116,14 @@ def test_block_solver_matches_dense():
     got = solve_contact_blocks(blocks, gaps, 5000.0)
     np.testing.assert_allclose(got.f, ref.f, rtol=1e-8, atol=1e-9)
     assert got.delta == pytest.approx(ref.delta, rel=1e-10)
+
+
+def test_block_solver_reports_singular_block_and_non_convergence():
+    """The compiled active set reports, with the position, a singular block and an iteration limit reached."""
+    from gearrom.errors import SolverError
+
+    with pytest.raises(SolverError, match="singular contact block at theta = 3 deg"):
+        solve_contact_blocks([np.zeros((2, 2))], [np.zeros(2)], 100.0, where=" at theta = 3 deg")
+    C = np.eye(4) * 1e-9  # all 1e4 N on the first point: the others penetrate by 10 um less their gaps
+    with pytest.raises(SolverError, match=r"did not converge after 1 iterations \(largest penetration 10 um, 4 active of 4\)"):
+        solve_contact_blocks([C], [np.array([0.0, 1e-9, 2e-9, 3e-9])], 1e4, max_iter=1)
