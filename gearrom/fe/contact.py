@@ -126,9 +126,10 @@ def solve_contact_blocks(blocks: list[np.ndarray], gaps: list[np.ndarray], force
     cpad = np.zeros((len(blocks), int(sizes.max()), int(sizes.max())))
     for k, C in enumerate(blocks):
         cpad[k, :sizes[k], :sizes[k]] = C
-    f, delta, gap, it, worst, n_active = _blocks_active_set(cpad, starts, h, float(force), float(tol), int(max_iter))
-    if it == -1:
-        raise SolverError(f"singular contact block{where}")
+    try:
+        f, delta, gap, it, worst, n_active = _blocks_active_set(cpad, starts, h, float(force), float(tol), int(max_iter))
+    except np.linalg.LinAlgError:
+        raise SolverError(f"singular contact block{where}") from None
     if it == 0:
         raise SolverError(
             f"contact active set did not converge{where} after {max_iter} iterations "
@@ -142,7 +143,7 @@ def _blocks_active_set(cpad, starts, h, force, tol, max_iter):  # pragma: no cov
     """Active-set iteration of :func:`solve_contact_blocks` on the padded blocks ``cpad`` (nb, m, m).
 
     Returns ``(f, delta, gap, iterations, largest penetration, active count)``; iterations 0: not
-    converged, -1: a singular block.
+    converged. A singular block raises ``LinAlgError``.
     """
     n = h.size
     nb_ = cpad.shape[0]
@@ -177,35 +178,10 @@ def _blocks_active_set(cpad, starts, h, force, tol, max_iter):  # pragma: no cov
                     A[p, q] = cpad[k, idx[p], idx[q]]
                 rhs[p, 0] = 1.0
                 rhs[p, 1] = h[s0 + idx[p]]
-            # LU with partial pivoting; a zero pivot is a singular block
-            for c in range(m):
-                piv = c
-                for r in range(c + 1, m):
-                    if abs(A[r, c]) > abs(A[piv, c]):
-                        piv = r
-                if A[piv, c] == 0.0:
-                    return f, 0.0, gap, -1, worst, 0
-                if piv != c:
-                    for q in range(m):
-                        A[c, q], A[piv, q] = A[piv, q], A[c, q]
-                    rhs[c, 0], rhs[piv, 0] = rhs[piv, 0], rhs[c, 0]
-                    rhs[c, 1], rhs[piv, 1] = rhs[piv, 1], rhs[c, 1]
-                for r in range(c + 1, m):
-                    l = A[r, c] / A[c, c]
-                    for q in range(c + 1, m):
-                        A[r, q] -= l * A[c, q]
-                    rhs[r, 0] -= l * rhs[c, 0]
-                    rhs[r, 1] -= l * rhs[c, 1]
-            for c in range(m - 1, -1, -1):
-                x0, x1 = rhs[c, 0], rhs[c, 1]
-                for q in range(c + 1, m):
-                    x0 -= A[c, q] * rhs[q, 0]
-                    x1 -= A[c, q] * rhs[q, 1]
-                rhs[c, 0] = x0 / A[c, c]
-                rhs[c, 1] = x1 / A[c, c]
+            x = np.linalg.solve(A, rhs)  # raises LinAlgError on a singular block
             for p in range(m):
-                a[s0 + idx[p]] = rhs[p, 0]
-                b[s0 + idx[p]] = rhs[p, 1]
+                a[s0 + idx[p]] = x[p, 0]
+                b[s0 + idx[p]] = x[p, 1]
         delta = (force + b.sum()) / a.sum()
         neg = False
         for i in range(n):
