@@ -12,7 +12,7 @@ References:
   same alpha takes away the share alpha / (2 omega) J_free / J_total per radian.
 * the energy balance (kinetic + strain + spring + dissipated = external work) holds within 0.1 %.
 * checkpoint: a run stopped at a chunk boundary and resumed gives the uninterrupted run's record bit
-  for bit.
+  for bit; so does a finished run continued to a later end time with the same chunk length.
 """
 from __future__ import annotations
 
@@ -101,3 +101,44 @@ def test_checkpoint_resume_is_bit_for_bit(tmp_path):
         solve(_ring(alpha_rel=50.0), 4e-3, checkpoint=ck, **kw)
     with pytest.raises(ConfigError, match="checkpoint"):
         solve(model, 4e-3, wall_limit=1.0, **kw)
+
+
+def test_checkpoint_extends_a_finished_run_bit_for_bit(tmp_path):
+    """A finished run continued to a later end time, with the same chunk length, is the run made to that
+    end at once; other chunk boundaries or an earlier end are refused by name."""
+    model = _ring(alpha_rel=100.0)
+    kw = dict(sample_period=2e-5, parallel=False)
+    whole = solve(model, 4e-3, chunks=5, **kw)               # 200 rows, 40 per chunk
+    ck = tmp_path / "run.ckpt.npz"
+    short = solve(model, 2.4e-3, chunks=3, checkpoint=ck, **kw)
+    assert short.t[-1] == pytest.approx(2.4e-3) and len(short.t) < len(whole.t)
+    with pytest.raises(ConfigError, match="chunk boundaries"):
+        solve(model, 4e-3, chunks=4, checkpoint=ck, **kw)     # 50 rows per chunk
+    with pytest.raises(ConfigError, match="chunk boundaries"):
+        solve(model, 1.6e-3, chunks=2, checkpoint=ck, **kw)   # ends before the stored run
+    longer = solve(model, 4e-3, chunks=5, checkpoint=ck, **kw)
+    for name in ("t", "theta", "omega", "energies", "torque_body"):
+        assert np.array_equal(getattr(whole, name), getattr(longer, name)), name
+    assert np.array_equal(whole.u_final, longer.u_final)
+
+
+def test_checkpoint_of_the_earlier_format_resumes_its_own_run(tmp_path):
+    """A checkpoint whose key also covers t_end and the chunk count resumes that same run bit for bit."""
+    from gearrom.fe.explicit.driver import fingerprint
+
+    model = _ring(alpha_rel=100.0)
+    kw = dict(sample_period=2e-5, chunks=5, parallel=False)
+    whole = solve(model, 4e-3, **kw)
+    ck = tmp_path / "run.ckpt.npz"
+    with pytest.raises(RunInterrupted):
+        solve(model, 4e-3, checkpoint=ck, wall_limit=0.0, **kw)
+    with np.load(ck) as z:
+        arrays = {k: z[k] for k in z.files if k not in ("format", "key", "bounds")}
+    legacy = fingerprint(model, t_end=4e-3, sample_period=2e-5, dt=whole.meta["dt_s"], chunks=5,
+                         probes=np.zeros(0, np.int64), parallel=False)
+    np.savez(ck, format=np.array("gearrom.explicit-checkpoint/1"), key=np.array(legacy), **arrays)
+    with pytest.raises(ConfigError, match="fingerprint"):
+        solve(model, 4.8e-3, checkpoint=ck, **{**kw, "chunks": 6})
+    resumed = solve(model, 4e-3, checkpoint=ck, **kw)
+    for name in ("t", "theta", "energies"):
+        assert np.array_equal(getattr(whole, name), getattr(resumed, name)), name

@@ -292,7 +292,9 @@ def _open_edges(segs: np.ndarray, g_pair: np.ndarray) -> np.ndarray:
 _STATE = ("u", "v", "a", "f", "r_pos", "r_vel", "r_acc", "r_th", "r_om", "r_al", "r_prev", "ld_fprev", "ld_uprev",
           "c_usearch", "acc", "head", "nxt", "cand", "ncand", "gap")
 _OUT = ("out_t", "out_E", "out_th", "out_om", "out_tq", "out_pos", "out_pu", "out_pv")
-CHECKPOINT_FORMAT = "gearrom.explicit-checkpoint/1"
+CHECKPOINT_FORMAT = "gearrom.explicit-checkpoint/2"
+#: format whose key also covers t_end and the chunk count (resumed as the same run only)
+_LEGACY_FORMAT = "gearrom.explicit-checkpoint/1"
 
 
 def fingerprint(model: ExplicitModel, **settings) -> str:
@@ -326,31 +328,52 @@ def fingerprint(model: ExplicitModel, **settings) -> str:
 
 
 def _save_checkpoint(path: Path, state: dict, out: dict, row: int, chunk: int, t0: float, wall: float,
-                     key: str) -> None:
+                     key: str, bounds: np.ndarray) -> None:
     from gearrom.fe.cache import atomic_path
 
     arrays = {f"state_{k}": state[k] for k in _STATE}
     arrays.update({k: out[k][:row] for k in _OUT})
     with atomic_path(path) as tmp:
         np.savez(tmp, format=np.array(CHECKPOINT_FORMAT), key=np.array(key), row=np.array(row),
-                 chunk=np.array(chunk), t0=np.array(t0), wall=np.array(wall), **arrays)
+                 chunk=np.array(chunk), bounds=np.asarray(bounds[:chunk + 1], np.int64), t0=np.array(t0),
+                 wall=np.array(wall), **arrays)
 
 
-def _load_checkpoint(path: Path, state: dict, out: dict, key: str) -> tuple[int, int, float, float]:
-    """Restore ``state`` and ``out`` in place from ``path``; return (row, next chunk, t0, wall so far)."""
+def _load_checkpoint(path: Path, state: dict, out: dict, key: str, legacy_key: str,
+                     bounds: np.ndarray) -> tuple[int, int, float, float]:
+    """Restore ``state`` and ``out`` in place from ``path``; return (row, next chunk, t0, wall so far).
+
+    A checkpoint continues a run of the same model, step, sample period, probes and thread mode whose
+    completed chunk boundaries are the first ones of ``bounds`` (output rows). The end time may differ:
+    a run extended to a later ``t_end`` with the same chunk length continues where the stored one stopped.
+    """
     try:
         with np.load(path) as z:
-            if str(z["format"]) != CHECKPOINT_FORMAT:
-                raise ConfigError(f"checkpoint {path}: format {str(z['format'])!r}, expected {CHECKPOINT_FORMAT!r}")
-            if str(z["key"]) != key:
-                raise ConfigError(f"checkpoint {path} was written by a different model or run settings "
-                                  "(fingerprint mismatch); delete it or run without resume")
-            row = int(z["row"])
+            fmt = str(z["format"])
+            chunk, row = int(z["chunk"]), int(z["row"])
+            if fmt == _LEGACY_FORMAT:
+                if str(z["key"]) != legacy_key:
+                    raise ConfigError(f"checkpoint {path} was written by a different model or run settings "
+                                      "(fingerprint mismatch; this older format resumes only the same t_end "
+                                      "and chunks); delete it or run without resume")
+            elif fmt != CHECKPOINT_FORMAT:
+                raise ConfigError(f"checkpoint {path}: format {fmt!r}, expected {CHECKPOINT_FORMAT!r}")
+            else:
+                if str(z["key"]) != key:
+                    raise ConfigError(f"checkpoint {path} was written by a different model or run settings "
+                                      "(fingerprint mismatch); delete it or run without resume")
+                done = z["bounds"]
+                if chunk >= len(bounds) or not np.array_equal(bounds[:chunk + 1], done):
+                    raise ConfigError(
+                        f"checkpoint {path} holds {chunk} chunks ending at output row {int(done[-1])}, which are "
+                        f"not the first chunks of this run ({len(bounds) - 1} chunks, {int(bounds[-1])} rows): "
+                        "a run continues only with the same chunk boundaries and a t_end not before the stored "
+                        "one; delete it or run without resume")
             for k in _STATE:
                 state[k][...] = z[f"state_{k}"]
             for k in _OUT:
                 out[k][:row] = z[k]
-            return row, int(z["chunk"]), float(z["t0"]), float(z["wall"])
+            return row, chunk, float(z["t0"]), float(z["wall"])
     except (OSError, KeyError, ValueError) as exc:
         raise ConfigError(f"checkpoint {path} cannot be read ({exc}); delete it to start over") from None
 
@@ -404,7 +427,9 @@ def solve(model: ExplicitModel, t_end: float, sample_period: float | None = None
         File (``.npz``) that holds the complete loop state at a chunk boundary, written atomically at
         most every ``checkpoint_every`` wall seconds and after the last chunk. With ``resume`` an
         existing checkpoint of the same model and settings is continued from; the resumed run is bit
-        for bit the uninterrupted one (same chunks, same thread count).
+        for bit the uninterrupted one (same chunks, same thread count). A checkpoint of a shorter run
+        with the same chunk length (its chunk boundaries the first ones of this run) is continued to the
+        later ``t_end``, bit for bit the run made to that end at once.
     checkpoint_every : float
         Wall time between checkpoints, s.
     resume : bool
@@ -468,11 +493,14 @@ def solve(model: ExplicitModel, t_end: float, sample_period: float | None = None
     key = ""
     if checkpoint is not None:
         checkpoint = Path(checkpoint)
-        key = fingerprint(model, t_end=t_end, sample_period=sample_period, dt=step_dt, chunks=chunks,
-                          probes=probes, parallel=bool(parallel))
+        key = fingerprint(model, sample_period=sample_period, dt=step_dt, probes=probes, parallel=bool(parallel))
         if resume and checkpoint.is_file():
-            row, first, t0, wall_before = _load_checkpoint(checkpoint, st, out, key)
+            legacy = fingerprint(model, t_end=t_end, sample_period=sample_period, dt=step_dt, chunks=chunks,
+                                 probes=probes, parallel=bool(parallel))
+            row, first, t0, wall_before = _load_checkpoint(checkpoint, st, out, key, legacy, bounds)
             log.info("explicit: resumed from %s at t = %.4e s (chunk %d of %d)", checkpoint, t0, first, chunks)
+            if first == chunks:
+                _save_checkpoint(checkpoint, st, out, row, first, t0, wall_before, key, bounds)
     # the loop's array groups (the state arrays are updated in place; the output rows change per chunk)
     src = {**d, **st, "X": model.nodes, "probes": probes}
     fixed = tuple(tuple(src[k] for k in names) for names in
@@ -503,10 +531,10 @@ def solve(model: ExplicitModel, t_end: float, sample_period: float | None = None
                  "(strain + contact %.3g J, external work %.3g J)", t0, t_end, 100.0 * bounds[c + 1] / n_out_total,
                  wall_before + now - wall0, eta, e[9], e[1] + e[2] + e[4], e[8])
         if checkpoint is not None and (now - last_save >= checkpoint_every or c == chunks - 1):
-            _save_checkpoint(checkpoint, st, out, row, c + 1, t0, wall_before + now - wall0, key)
+            _save_checkpoint(checkpoint, st, out, row, c + 1, t0, wall_before + now - wall0, key, bounds)
             last_save = time.perf_counter()
         if wall_limit is not None and now - wall0 >= wall_limit and c < chunks - 1:
-            _save_checkpoint(checkpoint, st, out, row, c + 1, t0, wall_before + now - wall0, key)
+            _save_checkpoint(checkpoint, st, out, row, c + 1, t0, wall_before + now - wall0, key, bounds)
             raise RunInterrupted(f"explicit run stopped at t = {t0:.4e} of {t_end:.4e} s (wall limit "
                                  f"{wall_limit:g} s); checkpoint {checkpoint}: run again to resume")
     wall = wall_before + time.perf_counter() - wall0
