@@ -124,8 +124,11 @@ def test_rom_vs_fe_notebook(tmp_path, monkeypatch):
         for key in ("gmf1_amplitude_um", "gmf2_amplitude_um", "gmf3_amplitude_um", "dte_periodic_rms_um"):
             assert abs(s["metrics"][key]["rel_error"] - ref["metrics"][key]["rel_error"]) < 2e-3, key
         assert s["gates"]["passed"] == ref["gates"]["passed"]
+    # the loaded-start references balance their energy and are mesh-periodic (the drift verdict of each
+    # record is judged in tests/validation/test_validation_references.py)
     loaded = [s for s in v["spur"] if s["fe"].get("record") == "loaded"]
-    assert loaded and all(s["gates"]["passed"] for s in loaded)
+    assert loaded and all(s["gates"]["energy_error_rel"] < 0.01 and s["gates"]["nonperiodic_share"] < 0.1
+                          for s in loaded)
 
 
 def test_closed_loop_notebook(tmp_path, monkeypatch):

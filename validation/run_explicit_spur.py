@@ -8,11 +8,13 @@ start position (dynamic relaxation of the same model), each gear at its rigid-bo
 output torque from t = 0, with the relative damping of ``validation/ringdown_spur.json`` (the ring-down
 calibration: damping ratio zeta at the mesh mode, on the velocity relative to each gear's rigid
 rotation, so the spin is not braked). It settles for ``--settle`` mesh periods (default: the periods
-covering 4 time constants 1 / (zeta w_mesh-mode), after which the start transient is below 2 % of its
+covering 5 time constants 1 / (zeta w_mesh-mode), after which the start transient is below 1 % of its
 size) and records PERIODS (default 10). It writes ``spur_<rpm>rpm_loaded.npz/.json``.
 
 The run writes a checkpoint ``validation/checkpoints/<stem>.ckpt.npz`` every few minutes; run the same
 command again to resume it bit for bit (``--wall-limit-h`` stops a sitting cleanly after a checkpoint).
+A finished or stopped run given a larger ``--settle`` or PERIODS continues from its checkpoint to the
+later end (same chunk length: 1/8 mesh period), bit for bit the longer run.
 
 ``--start gap`` (the older records ``spur_<rpm>rpm[_full].*``): both gears at speed, a 1 um gap, the output
 torque ramped in over ``--ramp-ms``, no damping. The quasi-static 60 rpm check is
@@ -75,7 +77,7 @@ def main(rpm: float, outline: float = 0.15e-3, body: float = 1.5e-3, periods: in
         alpha, zeta, f_mode = cal["alpha_r_per_s"], cal["zeta_target"], cal["runs"][-1]["frequency_Hz"]
         tau = 1.0 / (zeta * 2 * math.pi * f_mode)
         if settle_periods is None:
-            settle_periods = math.ceil(4 * tau * f_mesh)
+            settle_periods = math.ceil(5 * tau * f_mesh)
         ramp = 0.0
         setup = GearPairSetup(rpm_in=rpm, torque_out=120.0, mu=0.0, integration=integration, start="loaded",
                               relative_damping=alpha, mass_scaling_dt=mass_scaling_dt,

@@ -29,7 +29,16 @@ def _record(rpm: float):
     return stem
 
 
-@pytest.mark.parametrize("rpm", SPEEDS)
+#: speeds whose stored record misses a gate, with the finding
+KNOWN_GATE_MISSES = {
+    2000.0: ("drift 2.3 % of GMF1 (limit 2 %): the per-period means scatter by 3.3 % of GMF1 without a trend "
+             "(the gmsh mesh of each whole gear differs from tooth to tooth), which gives the 10-period "
+             "least-squares drift a standard error of 3.4 % of GMF1 (docs/validation.md, Gates)"),
+}
+
+
+@pytest.mark.parametrize("rpm", [pytest.param(r, marks=pytest.mark.xfail(strict=True, reason=KNOWN_GATE_MISSES[r]))
+                                 if r in KNOWN_GATE_MISSES else r for r in SPEEDS])
 def test_reference_record_passes_its_gates(rpm):
     """The stored record is a reference: energy balance, steady state and drift gates."""
     from gearrom.validation.gates import record_gates
@@ -42,17 +51,33 @@ def test_reference_record_passes_its_gates(rpm):
     assert meta["start"] == "loaded" and meta["mesh_periods_recorded"] >= 10
     w = steady_window(fe.theta_in, fe.t, float(fe.meta["t_steady_from_s"]), 32)
     g = record_gates(fe.theta_in[w], fe.te[w], 32, fe.energies)
-    assert g["passed"], {k: g[k] for k in GATES}
     assert np.all(np.isfinite(fe.te))
+    assert g["passed"], {k: g[k] for k in GATES}
+
+
+def test_energy_and_steady_state_gates_hold_for_every_stored_record():
+    """Whatever the drift verdict, each stored record balances its energy and is mesh-periodic in
+    steady state (energy error < 1 % of the peak internal energy, non-periodic RMS < 10 % of the DTE)."""
+    from gearrom.validation.gates import record_gates
+    from gearrom.validation.report import load_fe_record
+    from gearrom.validation.compare import steady_window
+
+    stored = [r for r in SPEEDS if record_stem(DEFAULT_FE_DIR, r, "spur", "loaded").with_suffix(".npz").is_file()]
+    if not stored:
+        pytest.skip("no committed loaded-start reference")
+    for rpm in stored:
+        fe = load_fe_record(DEFAULT_FE_DIR, rpm, "spur", "loaded")
+        w = steady_window(fe.theta_in, fe.t, float(fe.meta["t_steady_from_s"]), 32)
+        g = record_gates(fe.theta_in[w], fe.te[w], 32, fe.energies)
+        assert g["energy_error_rel"] < GATES["energy_error_rel"], (rpm, g)
+        assert g["nonperiodic_share"] < GATES["nonperiodic_share"], (rpm, g)
 
 
 #: speeds whose full verdict is a known miss, with the finding (the tests of the GMF lines still judge them)
 KNOWN_MISSES = {
-    2000.0: ("DTE periodic RMS +20 % (orders 1-20): 63 % of the FE's mesh-periodic mean square is order 7, "
-             "at 0.97 of the mesh mode (7665 Hz; ring-down) where a 1 % shift of the mode changes the "
-             "response by ~14 %; the explicit model is 2.3 % stiffer than the LTCA table (mean TE "
-             "9.61 vs 9.83 um; static gate -2.4 %), so the ROM's order 7 is 3.27 vs 2.46 um, order 8 "
-             "0.25 vs 0.48 um; GMF1-3 agree within 8.5 % and 1.1 deg (validation/rom_vs_fe_spur_loaded.json)"),
+    2000.0: ("the record misses the drift gate (KNOWN_GATE_MISSES); every metric is within its tolerance: "
+             "mean TE +0.2 %, periodic DTE RMS +5.8 %, GMF1-3 -2.1 / -7.3 / -5.2 %, phases within 1.5 deg "
+             "(validation/rom_vs_fe_spur_loaded.json)"),
 }
 
 
@@ -82,6 +107,15 @@ def test_rom_matches_the_gmf_lines(rpm):
     for side in ("fe", "rom"):
         rms = np.sqrt(np.sum(np.square(o[f"{side}_amplitude_um"])) / 2)
         assert rms == pytest.approx(s.metrics["dte_periodic_rms_um"][side], rel=1e-6)
+
+
+@pytest.mark.parametrize("rpm", SPEEDS)
+def test_rom_metrics_within_tolerances(rpm):
+    """Every judged metric (mean TE, periodic DTE RMS, GMF1-3 amplitudes and phases) within its tolerance;
+    the record's gates are judged by test_reference_record_passes_its_gates."""
+    s = _speed(rpm)
+    metric_misses = [m for m in s.misses if not m.startswith("FE record gate")]
+    assert not metric_misses, metric_misses
 
 
 @pytest.mark.parametrize("rpm", [pytest.param(r, marks=pytest.mark.xfail(strict=True, reason=KNOWN_MISSES[r]))
