@@ -35,20 +35,22 @@ def closed_outline(pair, i: int, density: int = 1) -> np.ndarray:
 
 
 def resample_closed(poly: np.ndarray, h: float, sag: float | None = None, h_min: float | None = None,
-                     r_refine: float = 0.0) -> np.ndarray:
+                     r_refine: float = 0.0, multiple: int = 1) -> np.ndarray:
     """Points along the closed polyline ``poly`` at spacing ``h``, or finer where it curves.
 
     With ``sag`` (m) the spacing is ``min(h, 2 sqrt(8 sag / kappa))`` (not below ``h_min``): after the
     later halving of every segment, the chords of an arc of curvature kappa deviate from it by at most
     ``sag``. The curvature comes from the turning angle at each polyline vertex, and the spacing is
     the smallest over +-h along the outline, so that the refinement starts ahead of a rounded corner.
-    Only vertices at radius >= ``r_refine`` (m, from the origin) are refined.
+    Only vertices at radius >= ``r_refine`` (m, from the origin) are refined. The point count is a
+    multiple of ``multiple``: the points of a polyline made of ``multiple`` rotated copies of one part are
+    then rotated copies of one part's points too.
     """
     closed = np.vstack([poly, poly[:1]])
     seg = np.hypot(*np.diff(closed, axis=0).T)
     arc = np.concatenate([[0.0], np.cumsum(seg)])
     if sag is None:
-        n = max(8, int(round(arc[-1] / h)))
+        n = max(8, multiple * int(round(arc[-1] / h / multiple)))
         t = np.linspace(0.0, arc[-1], n, endpoint=False)
     else:
         d = np.diff(closed, axis=0)
@@ -66,7 +68,7 @@ def resample_closed(poly: np.ndarray, h: float, sag: float | None = None, h_min:
         hi = np.searchsorted(ext_s, s0 + total + h)
         csp = np.array([ext_sp[a:b].min() for a, b in zip(lo, hi)])
         dens = np.concatenate([[0.0], np.cumsum(seg / csp)])                    # nodes per arc length
-        n = max(8, int(round(dens[-1])))
+        n = max(8, multiple * int(round(dens[-1] / multiple)))
         t = np.interp(np.arange(n) * dens[-1] / n, dens, arc)
     return np.column_stack([np.interp(t, arc, closed[:, 0]), np.interp(t, arc, closed[:, 1])])
 
@@ -95,8 +97,13 @@ def project_onto(points: np.ndarray, poly: np.ndarray) -> np.ndarray:
 
 
 def gear_quad_mesh(pair, i: int, outline_size: float, body_size: float | None = None,
-                   grading: float = 2e-3, project: bool = True, sag: float | None = None):
+                   grading: float = 2e-3, project: bool = True, sag: float | None = None, periodic: bool = False):
     """Q4 mesh of gear ``i`` of ``pair``; ``project`` puts the outline nodes on the generated profile.
+
+    ``periodic``: mesh the sector of one tooth (between the middles of its two root spaces, from the
+    outline to the bore) with its two radial cuts meshed alike, and copy it around the gear, so that
+    every tooth has the same mesh. A whole-gear mesh gives each tooth its own mesh, hence a slightly
+    different compliance per tooth: content at the shaft orders that a tooth-identical model lacks.
 
     ``sag`` (m): refine the outline above the base circle where it curves (flanks, tip-edge roundings) so
     that its chords stay within ``sag`` of the profile (:func:`resample_closed`; at most 4 times finer
@@ -115,14 +122,18 @@ def gear_quad_mesh(pair, i: int, outline_size: float, body_size: float | None = 
     body_size = body_size or outline_size
     if not 0 < outline_size <= body_size:
         raise MeshError(f"gear_quad_mesh needs 0 < outline_size <= body_size, got {outline_size}, {body_size}")
+    z = pair.gears[i].z if periodic else 1
     if sag is None:
-        outline = resample_closed(closed_outline(pair, i), 2 * outline_size)   # halved below
+        outline = resample_closed(closed_outline(pair, i), 2 * outline_size, multiple=z)   # halved below
     else:
         outline = resample_closed(closed_outline(pair, i, density=10), 2 * outline_size, sag,
-                                   r_refine=pair.rb[i])
+                                   r_refine=pair.rb[i], multiple=z)
     last = None
     for algo, blossom, smooth in _ATTEMPTS:   # gmsh quads are occasionally degenerate at the root
-        mesh = _mesh(pair, i, outline, outline_size, body_size, grading, algo, blossom, smooth)
+        if periodic:
+            mesh = _periodic_mesh(pair, i, outline, outline_size, body_size, grading, algo, blossom, smooth)
+        else:
+            mesh = _mesh(pair, i, outline, outline_size, body_size, grading, algo, blossom, smooth)
         if project:
             mesh = _projected(mesh, closed_outline(pair, i, density=10))
         try:
@@ -144,8 +155,85 @@ def _projected(mesh, exact: np.ndarray):
     return xy, quads, bore
 
 
+def _quad_options(gmsh, lines, outline_size, body_size, grading, algo, blossom, smooth) -> None:
+    """Size field and quad options of the gear meshes (sizes doubled: the quad subdivision halves them)."""
+    from gearrom.fe.mesh2d import threshold_field
+
+    thr = threshold_field(gmsh, lines, 2 * outline_size, 2 * body_size, 0.5 * outline_size, grading, sampling=4)
+    gmsh.model.mesh.field.setAsBackgroundMesh(thr)
+    for opt, val in (("Mesh.MeshSizeExtendFromBoundary", 0), ("Mesh.MeshSizeFromPoints", 0),
+                     ("Mesh.MeshSizeFromCurvature", 0), ("Mesh.Algorithm", algo),
+                     ("Mesh.RecombineAll", 1), ("Mesh.RecombinationAlgorithm", blossom),
+                     ("Mesh.SubdivisionAlgorithm", 1), ("Mesh.Smoothing", smooth)):
+        gmsh.option.setNumber(opt, val)
+    for ln in lines:   # keep the outline resolution: one element per resampled segment (halved)
+        gmsh.model.mesh.setTransfiniteCurve(ln, 2)
+
+
+def _periodic_mesh(pair, i, outline, outline_size, body_size, grading, algo, blossom, smooth):
+    """One tooth's sector meshed with alike radial cuts (gmsh periodic curves), copied to every tooth and
+    merged at the cuts. ``outline`` holds ``z`` rotated copies of the first tooth's points."""
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+    from scipy.sparse import coo_matrix
+
+    from gearrom.fe.mesh2d import gmsh_session, surface_elements
+    from gearrom.geometry.profile import rotate
+
+    z = pair.gears[i].z
+    pitch = 2 * math.pi / z
+    n = outline.shape[0] // z
+    tooth = np.vstack([outline[:n], rotate(outline[:1], -pitch)])   # root middle to root middle
+    rb = 0.5 * pair.gears[i].bore_diameter
+    with gmsh_session(f"quadsector{i}") as gmsh:
+        geo = gmsh.model.geo
+        pts = [geo.addPoint(x, y, 0.0) for x, y in tooth]
+        lines = [geo.addLine(pts[k], pts[k + 1]) for k in range(len(pts) - 1)]
+        c0 = geo.addPoint(0.0, 0.0, 0.0)
+        b0, b1 = (geo.addPoint(*(rb * p / np.hypot(*p)), 0.0) for p in (tooth[0], tooth[-1]))
+        cut0, cut1 = geo.addLine(b0, pts[0]), geo.addLine(b1, pts[-1])      # both from the bore outwards
+        arc = geo.addCircleArc(b1, c0, b0)
+        geo.addPlaneSurface([geo.addCurveLoop(lines + [-cut1, arc, cut0])])
+        geo.synchronize()
+        c, s = math.cos(-pitch), math.sin(-pitch)
+        gmsh.model.mesh.setPeriodic(1, [cut1], [cut0], [c, -s, 0, 0, s, c, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1])
+        _quad_options(gmsh, lines, outline_size, body_size, grading, algo, blossom, smooth)
+        try:
+            gmsh.model.mesh.generate(2)
+        except Exception as exc:  # gmsh raises plain Exception
+            raise MeshError(f"gmsh failed to mesh the tooth sector of gear {i}: {exc}") from None
+        xy, quads, index = surface_elements(gmsh, 3, f" for the tooth sector of gear {i}")
+        bore = np.unique(np.concatenate([index[nodes.astype(np.int64)]
+                                         for _, _, nodes in zip(*gmsh.model.mesh.getElements(1, arc))]))
+    used = np.unique(quads)
+    remap = np.full(xy.shape[0], -1, np.int64)
+    remap[used] = np.arange(used.size)
+    xy, quads, bore = xy[used], remap[quads], remap[bore]
+    m = xy.shape[0]
+    allxy = np.vstack([rotate(xy, -k * pitch) for k in range(z)])
+    allq = np.vstack([quads + k * m for k in range(z)])
+    allbore = np.concatenate([bore + k * m for k in range(z)])
+    # merge the coincident nodes of neighbouring sectors' cuts
+    pairs = cKDTree(allxy).query_pairs(1e-9 * rb, output_type="ndarray")
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(allxy),) * 2)
+    _, label = connected_components(graph, directed=False)
+    first = np.full(label.max() + 1, -1, np.int64)
+    for k in range(len(label) - 1, -1, -1):
+        first[label[k]] = k
+    keep = np.unique(first)
+    new = np.full(len(allxy), -1, np.int64)
+    new[keep] = np.arange(keep.size)
+    idx = new[first[label]]
+    quads, xy, bore = idx[allq], allxy[keep], np.unique(idx[allbore])
+    p = xy[quads]
+    area = 0.5 * np.sum(p[:, :, 0] * np.roll(p[:, :, 1], -1, axis=1) - np.roll(p[:, :, 0], -1, axis=1) * p[:, :, 1], axis=1)
+    if np.median(area) < 0:      # gmsh orients all elements alike: flip all, never one by one
+        quads = quads[:, ::-1]
+    return xy, quads, bore
+
+
 def _mesh(pair, i, outline, outline_size, body_size, grading, algo, blossom, smooth):
-    from gearrom.fe.mesh2d import add_bore_surface, gmsh_session, surface_elements, threshold_field
+    from gearrom.fe.mesh2d import add_bore_surface, gmsh_session, surface_elements
 
     rb = 0.5 * pair.gears[i].bore_diameter
     with gmsh_session(f"quadgear{i}") as gmsh:
@@ -154,16 +242,7 @@ def _mesh(pair, i, outline, outline_size, body_size, grading, algo, blossom, smo
         lines = [geo.addLine(pts[k], pts[(k + 1) % len(pts)]) for k in range(len(pts))]
         outer = geo.addCurveLoop(lines)
         arcs = add_bore_surface(geo, outer, rb)
-        # sizes doubled: the quad subdivision below halves them
-        thr = threshold_field(gmsh, lines, 2 * outline_size, 2 * body_size, 0.5 * outline_size, grading, sampling=4)
-        gmsh.model.mesh.field.setAsBackgroundMesh(thr)
-        for opt, val in (("Mesh.MeshSizeExtendFromBoundary", 0), ("Mesh.MeshSizeFromPoints", 0),
-                         ("Mesh.MeshSizeFromCurvature", 0), ("Mesh.Algorithm", algo),
-                         ("Mesh.RecombineAll", 1), ("Mesh.RecombinationAlgorithm", blossom),
-                         ("Mesh.SubdivisionAlgorithm", 1), ("Mesh.Smoothing", smooth)):
-            gmsh.option.setNumber(opt, val)
-        for ln in lines:   # keep the outline resolution: one element per resampled segment (halved)
-            gmsh.model.mesh.setTransfiniteCurve(ln, 2)
+        _quad_options(gmsh, lines, outline_size, body_size, grading, algo, blossom, smooth)
         try:
             gmsh.model.mesh.generate(2)
         except Exception as exc:  # gmsh raises plain Exception
