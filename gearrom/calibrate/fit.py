@@ -81,6 +81,8 @@ class Context:
         self.micro_nominal = micro_nominal
         self.w = np.array([1.0, settings.channel_weight, settings.channel_weight])
         self._ste: dict = {}
+        #: effects accepted so far (set by the selection; a rig candidate re-simulates their kinematic errors)
+        self.accepted: list = []
         self.noise_var = float(np.mean([m.noise_m ** 2 for m in models]))
 
     def stack(self, per_run: list) -> np.ndarray:
@@ -109,10 +111,14 @@ class Candidate:
         At most one candidate of this effect is accepted per diagnosis (e.g. one re-tuned rig parameter).
     expensive : bool
         The fit re-simulates; once it explains nothing significant it is not tried again in later steps.
+    interacts : bool
+        The fit re-simulates the accepted effects too (their response depends on it): an expensive
+        candidate that explained nothing is tried again once another effect is accepted.
     """
 
     exclusive = False
     expensive = False
+    interacts = False
 
     def __init__(self, name: str, target: str):
         self.name, self.target = name, target

@@ -94,6 +94,7 @@ def select_effects(ctx: Context, candidates: list, D: list[np.ndarray]) -> tuple
         R = R0 - sum((ctx.stack(t.contrib) for t in accepted), np.zeros_like(R0))
         ss = float(R @ R)
         done = {t.key for t in accepted}
+        ctx.accepted = list(accepted)
         trials = []
         for c in candidates:
             if (c.name, c.target) in done or repr(c) in screened or \
@@ -151,6 +152,8 @@ def select_effects(ctx: Context, candidates: list, D: list[np.ndarray]) -> tuple
         step["accepted"] = repr(best.cand)
         accepted.append(best)
         accepted = joint_refit(ctx, accepted, R0)
+        # a rig candidate also changes how the accepted effects pass through the drivetrain: screen it anew
+        screened -= {repr(c) for c in candidates if getattr(c, "interacts", False)}
     return accepted, steps
 
 
@@ -165,13 +168,23 @@ def joint_refit(ctx: Context, accepted: list[Trial], R0: np.ndarray, sweeps: int
         lin = [i for i, t in enumerate(accepted) if hasattr(t.cand, "linear_columns")]
         non = [i for i in range(len(accepted)) if i not in lin]
         if lin:
-            R = R0 - sum((ctx.stack(accepted[i].contrib) for i in non), zero)
+            # a rig candidate that changes how the linear effects pass through the drivetrain: the sizes
+            # are solved with the re-tuned rig's columns, against the residual without its own change
+            rig = next((i for i in non if accepted[i].cand.interacts and "alone" in accepted[i].info), None)
+            R = R0 - sum((ctx.stack(accepted[i].info["alone"] if i == rig else accepted[i].contrib) for i in non), zero)
             blocks = [accepted[i].cand.linear_columns(ctx, accepted[i].info) for i in lin]
             cols = [c for b in blocks for c in b[0]]
             lo = np.concatenate([np.broadcast_to(b[1], (len(b[0]),)) for b in blocks])
             hi = np.concatenate([np.broadcast_to(b[2], (len(b[0]),)) for b in blocks])
-            A = np.column_stack([ctx.stack(c) for c in cols])
+            moved = (accepted[rig].cand.moved_columns(ctx, accepted[rig], [(accepted[i], b[0]) for i, b in zip(lin, blocks)])
+                     if rig is not None else None)
+            A = np.column_stack([ctx.stack(c) + (ctx.stack(moved[q]) if moved else 0.0) for q, c in enumerate(cols)])
             x = lsq_linear(A, R, bounds=(lo, hi)).x
+            if rig is not None:
+                t = accepted[rig]
+                contrib = [t.info["alone"][r] + sum(x[q] * moved[q][r] for q in range(len(cols)))
+                           for r in range(len(ctx.models))]
+                accepted[rig] = Trial(t.cand, t.x, contrib, t.dss, t.n_par, t.info)
             j = 0
             for i, b in zip(lin, blocks):
                 n = len(b[0])
@@ -183,6 +196,7 @@ def joint_refit(ctx: Context, accepted: list[Trial], R0: np.ndarray, sweeps: int
         for i in non:
             others = sum((ctx.stack(u.contrib) for j2, u in enumerate(accepted) if j2 != i), zero)
             t = accepted[i]
+            ctx.accepted = [u for j2, u in enumerate(accepted) if j2 != i]
             new = t.cand.refit(ctx, R0 - others, t)
             new.info = {**accepted[i].info, **new.info}
             accepted[i] = new

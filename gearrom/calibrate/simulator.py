@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import logging
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -42,12 +43,46 @@ def periodic_lookup(table: np.ndarray | None):
     return lambda th: np.interp(np.mod(th, 2 * math.pi), grid, ext)
 
 
-#: Rig parameters the ROM adapter can scale: name -> (config key or None, description).
+@dataclass(frozen=True)
+class Tunable:
+    """A rig parameter the ROM adapter can scale.
+
+    Attributes
+    ----------
+    keys : tuple of str
+        Config keys (dotted, :func:`gearrom.rom.rig_parameters`) scaled together; empty for a parameter
+        without a config key.
+    description : str
+    lo, hi : float
+        Range of the scale the diagnosis searches.
+    step : float
+        Ratio between neighbouring scales of the search ladder.
+    interacts : bool
+        The diagnosis fits the parameter together with the kinematic errors it has accepted (their
+        response through the re-tuned rig is re-simulated): for a parameter that changes how a kinematic
+        error reaches the encoders over its search range.
+    """
+
+    keys: tuple[str, ...]
+    description: str
+    lo: float = 0.4
+    hi: float = 2.5
+    step: float = 1.25
+    interacts: bool = False
+
+
+#: Rig parameters the ROM adapter can scale. The bearing supports are an assumption of most rig configs
+#: (catalogue stiffnesses, housing compliance unknown) and matter through the helical mesh's axial and
+#: tilting forces, so their scale is searched over three decades.
 ROM_TUNABLE = {
-    "k_clutch": ("rig.clutch.stiffness_Nm_per_rad", "clutch/coupling torsional stiffness"),
-    "J_load": ("rig.load.inertia_kg_m2", "load-side inertia"),
-    "J_motor": ("rig.motor.inertia_kg_m2", "motor rotor inertia"),
-    "mesh_stiffness": (None, "mesh stiffness level (scales the excitation table)"),
+    "k_clutch": Tunable(("rig.clutch.stiffness_Nm_per_rad",), "clutch/coupling torsional stiffness"),
+    "J_load": Tunable(("rig.load.inertia_kg_m2",), "load-side inertia"),
+    "J_motor": Tunable(("rig.motor.inertia_kg_m2",), "motor rotor inertia"),
+    "k_support": Tunable(("rig.bearings.ball_radial_N_per_um", "rig.bearings.ball_axial_N_per_um",
+                          "rig.bearings.needle_radial_N_per_um"),
+                         "bearing support stiffness (ball radial and axial, needle radial, scaled together)",
+                         lo=0.1, hi=100.0, step=10 ** 0.5, interacts=True),
+    "mesh_stiffness": Tunable((), "mesh stiffness level (scales the excitation table)"),
 }
 
 
@@ -90,7 +125,16 @@ class RomSimulator:
         self.micro = MicroMods.from_pair(self.pair)
 
     def tunable(self) -> dict[str, str]:
-        return {k: v[1] for k, v in ROM_TUNABLE.items()}
+        return {k: v.description for k, v in ROM_TUNABLE.items()}
+
+    def search_range(self, name: str) -> tuple[float, float, float]:
+        """(lowest, highest scale, ladder ratio) the diagnosis searches for rig parameter ``name``."""
+        t = ROM_TUNABLE[name]
+        return t.lo, t.hi, t.step
+
+    def interacts(self, name: str) -> bool:
+        """Whether rig parameter ``name`` is fitted together with the accepted kinematic errors."""
+        return ROM_TUNABLE[name].interacts
 
     def modes_hz(self, rig_scale=()) -> list[tuple[float, float]]:
         key = tuple((str(n), round(float(v), 9)) for n, v in rig_scale)
@@ -114,10 +158,10 @@ class RomSimulator:
             if unknown:
                 raise CalibrationError(f"RomSimulator: rig parameter(s) {unknown} not tunable; choose from {sorted(ROM_TUNABLE)}")
             cfg = self.config
-            if any(ROM_TUNABLE[n][0] for n in scale):
+            if any(ROM_TUNABLE[n].keys for n in scale):
                 params = self._rom.rig_parameters(self.config)
                 cfg = self._rom.with_overrides(self.config, {
-                    ROM_TUNABLE[n][0]: float(params[ROM_TUNABLE[n][0]]) * v for n, v in scale.items() if ROM_TUNABLE[n][0]})
+                    k: float(params[k]) * v for n, v in scale.items() for k in ROM_TUNABLE[n].keys})
             ex = None
             if (micro is not None and micro != self.micro) or "mesh_stiffness" in scale:
                 loaded = self._rom_cfg()

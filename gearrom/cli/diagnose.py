@@ -28,6 +28,10 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--max-effects", type=int, default=3, help="most effects added (default 3)")
     parser.add_argument("--effects", help="comma-separated subset of the library to consider "
                         "(eccentricity,pitch_error,tip_relief,lead_crowning,helix_slope,encoder_eccentricity,torsional_mode)")
+    parser.add_argument("--rig-parameters", metavar="NAMES",
+                        help="comma-separated rig parameters torsional_mode may re-tune (default: k_clutch,k_shaft_in,"
+                             "mesh_stiffness; the exudyn ROM also offers J_load, J_motor and k_support, the bearing "
+                             "support over 0.1-100 x, fitted with the kinematic errors it passes: slower)")
     parser.add_argument("--per-run-phase", action="store_true",
                         help="shaft-order phases per run (the default; kept for compatibility)")
     parser.add_argument("--shared-phase", action="store_true",
@@ -81,11 +85,37 @@ def check_args(args: argparse.Namespace) -> tuple[str, ...] | None:
                 check_name(n)
             except CalibrationError as exc:
                 raise CalibrationError(f"--effects={args.effects!r}: {exc}") from None
+    if args.rig_parameters is not None:
+        from gearrom.calibrate.simulator import ROM_TUNABLE
+        from gearrom.calibrate.torsional import TUNABLE
+
+        rig_parameter_names(args.rig_parameters, {**TUNABLE, **{k: v.description for k, v in ROM_TUNABLE.items()}},
+                            "the ROM or the torsional rig model")
     for path in args.measurements:
         meta = read_meta(path)
         if meta.torque_out_Nm is None and args.torque_out_Nm is None:
             raise CalibrationError(f"{path}: 'torque_out_Nm' is missing in the measurement and was not given "
                                    "(--torque-out-Nm)")
+    return names
+
+
+def rig_parameter_names(text: str, offered, by: str) -> tuple[str, ...]:
+    """The names of ``--rig-parameters``, each one in ``offered`` (the parameters ``by`` can scale).
+
+    Raises
+    ------
+    CalibrationError
+        An empty list or a name not offered (the offered ones are listed).
+    """
+    from gearrom.errors import CalibrationError
+
+    names = tuple(x.strip() for x in text.split(",") if x.strip())
+    if not names:
+        raise CalibrationError(f"--rig-parameters={text!r}: names no parameter")
+    unknown = [n for n in names if n not in offered]
+    if unknown:
+        raise CalibrationError(f"--rig-parameters={text!r}: {', '.join(unknown)} cannot be scaled by {by} "
+                               f"(offered: {', '.join(sorted(offered))})")
     return names
 
 
@@ -111,6 +141,10 @@ def run(args: argparse.Namespace) -> int:
     read_settings = dataclasses.replace(read_settings, allow_outside_data=args.allow_outside_data)
     settings = FitSettings(max_effects=args.max_effects, candidates=names, shared_shaft_phase=args.shared_phase and not args.per_run_phase)
     sim = default_simulator(args.config, prefer=args.simulator)
+    if args.rig_parameters is not None:
+        offered = sim.tunable() if hasattr(sim, "tunable") else {}
+        settings = dataclasses.replace(settings, rig_parameters=rig_parameter_names(
+            args.rig_parameters, offered, f"the {getattr(sim, 'name', 'simulator')}"))
     micro = None
     if args.micro_model == "slices":
         from gearrom.excitation.slices import SliceMicroModel

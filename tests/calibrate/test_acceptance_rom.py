@@ -214,3 +214,34 @@ def test_robust_to_speed_error_noise_and_short_record(rom_diagnosed):
     assert _phase_err(e["parameters"]["phase_deg"], rom_runout_phase_deg(0.3, info["theta_first_out"])) <= 20
     assert res.summary["runs"][0]["revs_out"] < 2.05
     _halved(res)
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "the scale comes out 1.67 (truth 10; tooth -14.0 um, error 1.59 -> 0.26 um): the tooth's position is fitted "
+    "on the nominal rig, whose phase lag at the pulse's orders it absorbs, and is not refitted on the re-tuned rig; "
+    "the fix is a profile over the scale that refits the accepted effects (positions too) on a model of the "
+    "re-tuned rig"))
+def test_stiffer_support_is_found_with_a_displaced_tooth(rom_diagnosed):
+    """Bearing supports 10 x stiffer than the config's and input tooth 7 standing 15 um proud (ROM-made: the
+    ROM's pitch curve and its bearings scaled by hand): with ``k_support`` among the rig parameters the
+    diagnosis names the tooth and a support scale within one ladder step (a half decade) of 10, and at least
+    halves the error. The support alone hardly changes the TE; it changes how the tooth's pulse reaches the
+    encoders, so the scale is fitted with the tooth's error re-simulated through the re-tuned rig."""
+    import dataclasses
+
+    from conftest import SELF_MADE
+    from gearrom.rom import rig_parameters
+
+    keys = ("rig.bearings.ball_radial_N_per_um", "rig.bearings.ball_axial_N_per_um",
+            "rig.bearings.needle_radial_N_per_um")
+    p = rig_parameters("thesis-rig")
+    inj = RomInjected(pitch=(PitchDeviations(0, one_tooth(32, 7, 15e-6)),), overrides={k: 10 * p[k] for k in keys})
+    settings = dataclasses.replace(SELF_MADE, rig_parameters=SELF_MADE.rig_parameters + ("k_support",))
+    res, _ = rom_diagnosed("support_pitch", inj, settings=settings)
+    found = {e["effect"]: e for e in res.effects}
+    assert "pitch_error" in found, res.text()
+    assert found["pitch_error"]["parameters"]["deviation_um"] == pytest.approx(-15.0, rel=0.25), res.text()
+    assert "torsional_mode" in found, res.text()
+    rig = found["torsional_mode"]["parameters"]
+    assert rig["parameter"] == "k_support" and 10 / 10 ** 0.5 <= rig["scale"] <= 10 * 10 ** 0.5, res.text()
+    _halved(res)

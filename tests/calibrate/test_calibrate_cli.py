@@ -57,3 +57,17 @@ def test_cli_missing_torque_names_the_field(dataset, tmp_path, capsys):
 def test_cli_missing_file(tmp_path, capsys):
     assert main(["diagnose", "thesis-helical", str(tmp_path / "nope.json")]) == 2
     assert "nope.json" in capsys.readouterr().err
+
+
+def test_cli_rig_parameters_are_checked_by_name(dataset, capsys):
+    """``--rig-parameters`` names parameters a simulator can scale: an unknown one is refused before the
+    diagnosis, and one the chosen simulator lacks (the bearing support is a ROM parameter) is refused
+    with the simulator named."""
+    paths = dataset("ecc_out", ECC, speeds=(1250.0,))
+    assert main(["diagnose", "thesis-helical", str(paths[0]), "--rig-parameters", "k_clutch,k_gearbox"]) == 2
+    err = capsys.readouterr().err
+    assert "k_gearbox" in err and "k_support" in err
+    assert main(["diagnose", "thesis-helical", str(paths[0]), "--simulator", "torsional",
+                 "--rig-parameters", "k_support"]) == 2
+    err = capsys.readouterr().err
+    assert "k_support" in err and "torsional" in err.lower()

@@ -82,6 +82,18 @@ def test_flank_and_rig_changes_add_to_the_nominal_values(tmp_path):
     assert "mesh_stiffness" in text and "input_encoder" in text and len(notes) == 2
 
 
+def test_support_scale_writes_every_bearing_stiffness(tmp_path):
+    """A parameter that scales several config keys (the bearing support) writes each of them scaled."""
+    base = tmp_path / "base.toml"
+    base.write_text('extends = "thesis-rig"\nname = "base"\n')
+    s = _summary({"effect": "torsional_mode", "target": None, "parameters": {"parameter": "k_support", "scale": 20.0}})
+    nominal = load_config(base).raw["rig"]["bearings"]
+    out = load_config(write_config(s, base, tmp_path / "out.toml")).raw["rig"]["bearings"]
+    for k in ("ball_radial_N_per_um", "ball_axial_N_per_um", "needle_radial_N_per_um"):
+        assert out[k] == pytest.approx(20.0 * nominal[k]), k
+    assert out["damping_beta_us"] == nominal["damping_beta_us"]
+
+
 def test_cli_refuses_a_non_toml_output_before_the_diagnosis(tmp_path, capsys):
     from gearrom.cli import main
 
