@@ -14,7 +14,8 @@ for rpm in 2000 1250; do
 import json, sys
 rec = json.load(open(f"validation/spur_{sys.argv[1]}rpm_loaded.json"))
 mesh = json.load(open("validation/ringdown_spur.json"))["mesh"]
-same = abs(rec["body_size_mm"] - mesh["body_size_m"] * 1e3) < 1e-9 and abs(rec["outline_size_mm"] - mesh["outline_size_m"] * 1e3) < 1e-9
+same = (abs(rec["body_size_mm"] - mesh["body_size_m"] * 1e3) < 1e-9 and abs(rec["outline_size_mm"] - mesh["outline_size_m"] * 1e3) < 1e-9
+        and rec.get("periodic_mesh", False) == mesh.get("periodic", False))
 sys.exit(0 if same else 1)
 PY
     then

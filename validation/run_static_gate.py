@@ -5,8 +5,8 @@ validation/static_gate_spur.json, or static_gate_spur_sag<S>um.json with an outl
 S um of the profile; points already in the file are kept, so an interrupted study resumes). About 20 s
 per static solve on one idle core.
 
-The explicit model is the reference runs' (fully integrated Q4, 0.15/1.5 mm, outline nodes on the
-profile, penalty contact), placed at the input angle ``j P / n`` from the FE start position and relaxed
+The explicit model is the reference runs' kind (fully integrated Q4, outline nodes on the profile,
+penalty contact; sizes, sag, penalty and a tooth-periodic mesh by option), placed at the input angle ``j P / n`` from the FE start position and relaxed
 under the output torque (:func:`gearrom.validation.explicit_static.static_te`). The LTCA side is the
 quasi-static table at the same torque, read at the table phase of the FE start plus the angle. The
 limits and the verdict are :func:`gearrom.validation.static_gate.static_gate`'s.
@@ -35,15 +35,17 @@ log = logging.getLogger("run_static_gate")
 
 
 def main(n: int = 16, torques=(60.0, 120.0), outline: float = 0.15e-3, body: float = 1.5e-3,
-         sag: float | None = None, penalty: float = 0.3) -> Path:
+         sag: float | None = None, penalty: float = 0.3, periodic: bool = False) -> Path:
     pair = load_config("thesis-spur").pair
     period = 2 * math.pi / pair.z[0]
-    meshes = [gear_quad_mesh(pair, i, outline, body, sag=sag) for i in (0, 1)]
+    meshes = [gear_quad_mesh(pair, i, outline, body, sag=sag, periodic=periodic) for i in (0, 1)]
     out = OUT if sag is None else OUT.with_name(f"{OUT.stem}_sag{sag * 1e6:g}um.json")
     if penalty != 0.3:
         out = out.with_name(f"{out.stem}_penalty{penalty:g}.json")
     if body != 1.5e-3:
         out = out.with_name(f"{out.stem}_body{body * 1e3:g}mm.json")
+    if periodic:
+        out = out.with_name(f"{out.stem}_periodic.json")
     data = json.loads(out.read_text()) if out.is_file() else {}
     if data.get("n_points", n) != n:   # points are keyed by their index among n angles
         raise SystemExit(f"{out} holds points of {data['n_points']} angles per mesh period, not {n}: use "
@@ -51,6 +53,7 @@ def main(n: int = 16, torques=(60.0, 120.0), outline: float = 0.15e-3, body: flo
     pts = data.setdefault("points", {})
     data.update(config="thesis-spur", integration="full", outline_size_mm=outline * 1e3, body_size_mm=body * 1e3,
                 outline_on_profile=True, outline_sag_um=None if sag is None else sag * 1e6, penalty_scale=penalty,
+                periodic_mesh=periodic,
                 n_points=n,
                 definition="static TE (FE convention: zero at rigid first contact of the start position) at input "
                            "angle j * mesh_period / n_points from the FE start position")
@@ -93,7 +96,8 @@ if __name__ == "__main__":
     ap.add_argument("--torques", type=float, nargs="+", default=[60.0, 120.0])
     ap.add_argument("--sag-um", type=float, default=None, help="outline refined to chords within this of the profile")
     ap.add_argument("--penalty", type=float, default=0.3, help="contact penalty scale (ContactPair.penalty_scale)")
-    ap.add_argument("--body-mm", type=float, default=1.5, help="body element size, mm (the references: 1.5)")
+    ap.add_argument("--body-mm", type=float, default=1.5, help="body element size, mm (the references: 0.75)")
+    ap.add_argument("--periodic", action="store_true", help="tooth-periodic mesh (the references' mesh)")
     a = ap.parse_args()
     main(a.points, tuple(a.torques), body=a.body_mm * 1e-3, sag=None if a.sag_um is None else a.sag_um * 1e-6,
-         penalty=a.penalty)
+         penalty=a.penalty, periodic=a.periodic)
