@@ -177,7 +177,7 @@ def _periodic_mesh(pair, i, outline, outline_size, body_size, grading, algo, blo
     from scipy.spatial import cKDTree
     from scipy.sparse import coo_matrix
 
-    from gearrom.fe.mesh2d import gmsh_session, surface_elements
+    from gearrom.fe.mesh2d import gmsh_session
     from gearrom.geometry.profile import rotate
 
     z = pair.gears[i].z
@@ -198,17 +198,10 @@ def _periodic_mesh(pair, i, outline, outline_size, body_size, grading, algo, blo
         c, s = math.cos(-pitch), math.sin(-pitch)
         gmsh.model.mesh.setPeriodic(1, [cut1], [cut0], [c, -s, 0, 0, s, c, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1])
         _quad_options(gmsh, lines, outline_size, body_size, grading, algo, blossom, smooth)
-        try:
-            gmsh.model.mesh.generate(2)
-        except Exception as exc:  # gmsh raises plain Exception
-            raise MeshError(f"gmsh failed to mesh the tooth sector of gear {i}: {exc}") from None
-        xy, quads, index = surface_elements(gmsh, 3, f" for the tooth sector of gear {i}")
+        xy, quads, index = _generate(gmsh, f"the tooth sector of gear {i}")
         bore = np.unique(np.concatenate([index[nodes.astype(np.int64)]
                                          for _, _, nodes in zip(*gmsh.model.mesh.getElements(1, arc))]))
-    used = np.unique(quads)
-    remap = np.full(xy.shape[0], -1, np.int64)
-    remap[used] = np.arange(used.size)
-    xy, quads, bore = xy[used], remap[quads], remap[bore]
+    xy, quads, bore = _compact(xy, quads, bore)
     m = xy.shape[0]
     allxy = np.vstack([rotate(xy, -k * pitch) for k in range(z)])
     allq = np.vstack([quads + k * m for k in range(z)])
@@ -224,16 +217,38 @@ def _periodic_mesh(pair, i, outline, outline_size, body_size, grading, algo, blo
     new = np.full(len(allxy), -1, np.int64)
     new[keep] = np.arange(keep.size)
     idx = new[first[label]]
-    quads, xy, bore = idx[allq], allxy[keep], np.unique(idx[allbore])
+    return allxy[keep], _counter_clockwise(allxy[keep], idx[allq]), np.unique(idx[allbore])
+
+
+def _generate(gmsh, what: str):
+    """Mesh the open gmsh model in 2D: nodes, quads and the node tag -> row index."""
+    from gearrom.fe.mesh2d import surface_elements
+
+    try:
+        gmsh.model.mesh.generate(2)
+    except Exception as exc:  # gmsh raises plain Exception
+        raise MeshError(f"gmsh failed to mesh {what}: {exc}") from None
+    return surface_elements(gmsh, 3, f" for {what}")
+
+
+def _compact(xy, quads, bore):
+    """Drop the nodes no quad uses (gmsh keeps geometry points such as the arc centre)."""
+    used = np.unique(quads)
+    remap = np.full(xy.shape[0], -1, np.int64)
+    remap[used] = np.arange(used.size)
+    bore = remap[bore]
+    return xy[used], remap[quads], bore[bore >= 0]
+
+
+def _counter_clockwise(xy, quads):
+    """``quads`` all counter-clockwise (gmsh orients all elements alike: flip all, never one by one)."""
     p = xy[quads]
     area = 0.5 * np.sum(p[:, :, 0] * np.roll(p[:, :, 1], -1, axis=1) - np.roll(p[:, :, 0], -1, axis=1) * p[:, :, 1], axis=1)
-    if np.median(area) < 0:      # gmsh orients all elements alike: flip all, never one by one
-        quads = quads[:, ::-1]
-    return xy, quads, bore
+    return quads[:, ::-1] if np.median(area) < 0 else quads
 
 
 def _mesh(pair, i, outline, outline_size, body_size, grading, algo, blossom, smooth):
-    from gearrom.fe.mesh2d import add_bore_surface, gmsh_session, surface_elements
+    from gearrom.fe.mesh2d import add_bore_surface, gmsh_session
 
     rb = 0.5 * pair.gears[i].bore_diameter
     with gmsh_session(f"quadgear{i}") as gmsh:
@@ -243,22 +258,11 @@ def _mesh(pair, i, outline, outline_size, body_size, grading, algo, blossom, smo
         outer = geo.addCurveLoop(lines)
         arcs = add_bore_surface(geo, outer, rb)
         _quad_options(gmsh, lines, outline_size, body_size, grading, algo, blossom, smooth)
-        try:
-            gmsh.model.mesh.generate(2)
-        except Exception as exc:  # gmsh raises plain Exception
-            raise MeshError(f"gmsh failed to mesh gear {i}: {exc}") from None
-        xy, quads, index = surface_elements(gmsh, 3, f" for gear {i}")
+        xy, quads, index = _generate(gmsh, f"gear {i}")
         bore = []
         for c in arcs:
             for _, _, nodes in zip(*gmsh.model.mesh.getElements(1, c)):
                 bore.append(index[nodes.astype(np.int64)])
         bore = np.unique(np.concatenate(bore))
-    used = np.unique(quads)
-    remap = np.full(xy.shape[0], -1, np.int64)
-    remap[used] = np.arange(used.size)
-    xy, quads, bore = xy[used], remap[quads], remap[bore]
-    p = xy[quads]
-    area = 0.5 * np.sum(p[:, :, 0] * np.roll(p[:, :, 1], -1, axis=1) - np.roll(p[:, :, 0], -1, axis=1) * p[:, :, 1], axis=1)
-    if np.median(area) < 0:      # gmsh orients all elements alike: flip all, never one by one
-        quads = quads[:, ::-1]
-    return xy, quads, bore[bore >= 0]
+    xy, quads, bore = _compact(xy, quads, bore)
+    return xy, _counter_clockwise(xy, quads), bore
