@@ -112,8 +112,8 @@ class Candidate:
     expensive : bool
         The fit re-simulates; once it explains nothing significant it is not tried again in later steps.
     interacts : bool
-        The fit re-simulates the accepted effects too (their response depends on it): an expensive
-        candidate that explained nothing is tried again once another effect is accepted.
+        The fit refits the accepted effects too (their response depends on it): an expensive candidate
+        that explained nothing is tried again once another effect is accepted.
     """
 
     exclusive = False

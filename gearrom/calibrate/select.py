@@ -151,10 +151,36 @@ def select_effects(ctx: Context, candidates: list, D: list[np.ndarray]) -> tuple
                                    "explained_share": trials[1].dss / ss} if len(trials) > 1 else None)
         step["accepted"] = repr(best.cand)
         accepted.append(best)
+        accepted = adopt_refit(accepted, best)
         accepted = joint_refit(ctx, accepted, R0)
         # a rig candidate also changes how the accepted effects pass through the drivetrain: screen it anew
         screened -= {repr(c) for c in candidates if getattr(c, "interacts", False)}
     return accepted, steps
+
+
+def adopt_refit(accepted: list[Trial], rig: Trial) -> list[Trial]:
+    """The accepted effects with those that ``rig`` (a rig parameter fitted by a profile) refitted on its
+    re-tuned rig replaced by their refits; the rig's contribution becomes its model change alone, so that
+    the sum of all contributions is unchanged."""
+    refit = rig.info.get("refit")
+    if not refit:
+        return accepted
+    by_key = {u.key: u for u in refit}
+    replaced = [t for t in accepted if t is not rig and t.key in by_key]
+    contrib = [rig.contrib[r] + sum(t.contrib[r] for t in replaced) - sum(by_key[t.key].contrib[r] for t in replaced)
+               for r in range(len(rig.contrib))]
+    new_rig = Trial(rig.cand, rig.x, contrib, rig.dss, rig.n_par, {**rig.info, "refit": None, "profiled": True})
+    out = []
+    for t in accepted:
+        if t is rig:
+            out.append(new_rig)
+        elif t.key in by_key:
+            u = by_key[t.key]
+            u.info = {**t.info, **u.info}
+            out.append(u)
+        else:
+            out.append(t)
+    return out
 
 
 def joint_refit(ctx: Context, accepted: list[Trial], R0: np.ndarray, sweeps: int = 3) -> list[Trial]:
@@ -164,27 +190,24 @@ def joint_refit(ctx: Context, accepted: list[Trial], R0: np.ndarray, sweeps: int
     if len(accepted) < 2:  # a single effect was fitted on exactly this residual already
         return accepted
     zero = np.zeros_like(R0)
+    prof = next((t for t in accepted if t.info.get("profiled")), None)
+    if prof is not None:  # its profile refits the other effects on the re-tuned rig: that is the joint fit
+        others = [t for t in accepted if t is not prof]
+        ctx.accepted = others
+        new = prof.cand.refit(ctx, R0 - sum((ctx.stack(t.contrib) for t in others), zero), prof)
+        new.info = {**prof.info, **new.info}
+        return adopt_refit([new if t is prof else t for t in accepted], new)
     for _ in range(sweeps):
         lin = [i for i, t in enumerate(accepted) if hasattr(t.cand, "linear_columns")]
         non = [i for i in range(len(accepted)) if i not in lin]
         if lin:
-            # a rig candidate that changes how the linear effects pass through the drivetrain: the sizes
-            # are solved with the re-tuned rig's columns, against the residual without its own change
-            rig = next((i for i in non if accepted[i].cand.interacts and "alone" in accepted[i].info), None)
-            R = R0 - sum((ctx.stack(accepted[i].info["alone"] if i == rig else accepted[i].contrib) for i in non), zero)
+            R = R0 - sum((ctx.stack(accepted[i].contrib) for i in non), zero)
             blocks = [accepted[i].cand.linear_columns(ctx, accepted[i].info) for i in lin]
             cols = [c for b in blocks for c in b[0]]
             lo = np.concatenate([np.broadcast_to(b[1], (len(b[0]),)) for b in blocks])
             hi = np.concatenate([np.broadcast_to(b[2], (len(b[0]),)) for b in blocks])
-            moved = (accepted[rig].cand.moved_columns(ctx, accepted[rig], [(accepted[i], b[0]) for i, b in zip(lin, blocks)])
-                     if rig is not None else None)
-            A = np.column_stack([ctx.stack(c) + (ctx.stack(moved[q]) if moved else 0.0) for q, c in enumerate(cols)])
+            A = np.column_stack([ctx.stack(c) for c in cols])
             x = lsq_linear(A, R, bounds=(lo, hi)).x
-            if rig is not None:
-                t = accepted[rig]
-                contrib = [t.info["alone"][r] + sum(x[q] * moved[q][r] for q in range(len(cols)))
-                           for r in range(len(ctx.models))]
-                accepted[rig] = Trial(t.cand, t.x, contrib, t.dss, t.n_par, t.info)
             j = 0
             for i, b in zip(lin, blocks):
                 n = len(b[0])
@@ -200,6 +223,8 @@ def joint_refit(ctx: Context, accepted: list[Trial], R0: np.ndarray, sweeps: int
             new = t.cand.refit(ctx, R0 - others, t)
             new.info = {**accepted[i].info, **new.info}
             accepted[i] = new
+            if new.info.get("refit"):  # a rig parameter that refitted the others on its re-tuned rig
+                return adopt_refit(accepted, new)
         if not non:
             break
     return accepted

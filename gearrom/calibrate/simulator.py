@@ -58,9 +58,9 @@ class Tunable:
     step : float
         Ratio between neighbouring scales of the search ladder.
     interacts : bool
-        The diagnosis fits the parameter together with the kinematic errors it has accepted (their
-        response through the re-tuned rig is re-simulated): for a parameter that changes how a kinematic
-        error reaches the encoders over its search range.
+        The diagnosis judges each scale with the accepted effects refitted on the re-tuned rig (a
+        profile): for a parameter that changes how a kinematic error reaches the encoders over its
+        search range.
     """
 
     keys: tuple[str, ...]

@@ -84,11 +84,13 @@ class PitchError(Candidate):
         return self._patterns[key]
 
     def _basis(self, r: int, m) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Orders, response ``H`` (3, Q) and ``exp(i q theta)`` (n, Q) of run ``r``."""
-        if r not in self._bases:
+        """Orders, response ``H`` (3, Q) and ``exp(i q theta)`` (n, Q) of run ``r`` of model ``m`` (cached per
+        model: a re-tuned rig's models of the same runs have their own responses)."""
+        key = (r, id(m))
+        if key not in self._bases:
             orders, H = m.H[shaft_of(self.target)]
-            self._bases[r] = (orders, H, np.exp(1j * np.outer(shaft_angle(m, shaft_of(self.target)), orders)))
-        return self._bases[r]
+            self._bases[key] = (m, orders, H, np.exp(1j * np.outer(shaft_angle(m, shaft_of(self.target)), orders)))
+        return self._bases[key][1:]
 
     def _coeffs(self, r: int, m, pat: np.ndarray) -> np.ndarray:
         """``G`` (3, Q): the signals' complex order amplitudes for the pattern at position 0."""

@@ -7,7 +7,8 @@ key of the parameter (:data:`gearrom.calibrate.simulator.ROM_TUNABLE`), scaled.
 """
 from __future__ import annotations
 
-import hashlib
+import dataclasses
+import logging
 import math
 
 import numpy as np
@@ -26,6 +27,26 @@ SPEC = EffectSpec(
     separation="runs at more speeds, so that GMF harmonics and shaft orders pass the mode at different frequencies, "
                "or an impact test of the rig")
 
+log = logging.getLogger(__name__)
+
+
+class _Retuned:
+    """A simulator whose rig parameters are scaled in every run (the other attributes are the wrapped one's)."""
+
+    def __init__(self, sim, rig_scale: tuple):
+        self._sim, self._rig = sim, tuple(rig_scale)
+
+    def simulate(self, cond, changes: ModelChanges | None = None):
+        ch = changes or ModelChanges()
+        return self._sim.simulate(cond, dataclasses.replace(ch, rig_scale=tuple(ch.rig_scale) + self._rig))
+
+    def __getattr__(self, name):
+        return getattr(self._sim, name)
+
+
+#: a rig scale whose explained energy is within this share of the best's is not told apart from it (the
+#: effect models' own error, as for look-alike flank modifications)
+RIG_AMBIGUITY = 0.1
 SCAN_STEPS = 6  # a search ladder of at most this many scales (besides 1) is evaluated at every step
 PROBE_SHARE = 0.02  # share of the residual energy a rig parameter must explain at x0.8 or x1.25 to be searched
 
@@ -44,96 +65,64 @@ class RigMode(Candidate):
     def __repr__(self):
         return f"torsional_mode[{self.param}]"
 
-    def _contrib(self, ctx: Context, scale: float) -> tuple[list, list, list]:
-        """Per run: the change the scaled rig brings (alone, plus its interaction with the accepted
-        effects), the mesh phase, and the change alone. The change alone is realigned (mesh phase
-        re-estimated from the re-tuned model's own GMF lines); an interacting parameter keeps the
-        nominal phase, so that its change alone and its interaction share one simulation."""
-        out, psis, alone = [], [], []
-        inter = self._interaction(ctx, scale)
-        for r, m in enumerate(ctx.models):
-            if self.interacts:
-                mapped, psi = self._rig_base(ctx, r, scale), m.psi
-            else:
-                mapped, psi = realigned(m, ctx.sim.simulate(m.cond, ModelChanges(rig_scale=((self.param, scale),))))
-            alone.append(mapped - m.nominal)
-            out.append(alone[-1] + (inter[r] if inter is not None else 0.0))
+    def _contrib(self, ctx: Context, scale: float) -> tuple[list, list, list | None]:
+        """Per run: the change the scaled rig brings, the mesh phases, and (interacting parameter) the
+        accepted effects refitted on the re-tuned rig (:meth:`_profile`). The change alone is realigned:
+        the mesh phase re-estimated from the re-tuned model's own GMF lines."""
+        if self.interacts and any(not isinstance(t.cand, RigMode) for t in ctx.accepted):
+            return self._profile(ctx, scale)
+        out, psis = [], []
+        for m in ctx.models:
+            mapped, psi = realigned(m, ctx.sim.simulate(m.cond, ModelChanges(rig_scale=((self.param, scale),))))
+            out.append(mapped - m.nominal)
             psis.append(psi)
-        return out, psis, alone
+        return out, psis, None
 
-    def _rig_base(self, ctx: Context, r: int, scale: float) -> np.ndarray:
-        """Run ``r`` of the re-tuned rig at the nominal mesh phase, mapped onto the run (cached)."""
-        from gearrom.calibrate.residual import map_to_run
+    def _profile(self, ctx: Context, scale: float) -> tuple[list, list, list]:
+        """The re-tuned rig with the accepted effects fitted again on it.
 
-        key = ("rig_base", r, self.param, round(scale, 6))
-        if key not in ctx._ste:
-            m = ctx.models[r]
-            ch = ModelChanges(mesh_phase_rad=m.psi, rig_scale=((self.param, scale),))
-            ctx._ste[key] = map_to_run(ctx.sim.simulate(m.cond, ch), m.run)
-        return ctx._ste[key]
-
-    def response_change(self, ctx: Context, scale: float, kinematic: list) -> list:
-        """Per run, the response to kinematic errors ``kinematic[r]`` (dict of ``kinematic_in`` /
-        ``kinematic_out`` tables, or None) with the rig scaled, minus the nominal rig's response."""
-        from gearrom.calibrate.residual import map_to_run
-
-        rig = ((self.param, scale),)
-        out = []
-        for r, m in enumerate(ctx.models):
-            kin = kinematic[r]
-            if not kin or all(v is None or not np.any(v) for v in kin.values()):
-                out.append(np.zeros_like(m.nominal))
-                continue
-            at_s = map_to_run(ctx.sim.simulate(m.cond, ModelChanges(mesh_phase_rad=m.psi, rig_scale=rig, **kin)), m.run)
-            key = ("kinematic_nominal", r, hashlib.sha1(b"".join(
-                k.encode() + np.ascontiguousarray(v).tobytes() for k, v in sorted(kin.items()))).hexdigest())
-            if key not in ctx._ste:   # the nominal rig's response to these errors, the same at every scale
-                ctx._ste[key] = map_to_run(ctx.sim.simulate(m.cond, ModelChanges(mesh_phase_rad=m.psi, **kin)), m.run)
-            out.append((at_s - self._rig_base(ctx, r, scale)) - (ctx._ste[key] - m.nominal))
-        return out
-
-    def _interaction(self, ctx: Context, scale: float) -> list | None:
-        """Per run, the change of the response to the accepted effects' kinematic errors (runout, pitch
-        deviations) that the scaled rig brings: those effects' contributions are the nominal rig's
-        response, and a rig that passes a kinematic error differently (a stiffer support of a helical
-        mesh) changes them. None when no accepted effect has a kinematic error."""
-        from gearrom.calibrate.select import verification_changes
+        A re-tuned support changes how a kinematic error (runout, a displaced tooth) reaches the
+        encoders, and the accepted effects' sizes and positions were fitted on the nominal rig. Each
+        run's model is rebuilt on the re-tuned rig (nominal run, mesh phase, drivetrain sensitivities;
+        cached per scale), the accepted effects are fitted again in their order and jointly, and the
+        change is that model minus the nominal one and the accepted effects' contributions. Returns the
+        per-run change, the re-tuned models' mesh phases and the refitted effects (which replace the
+        accepted ones when the parameter is accepted).
+        """
+        from gearrom.calibrate.fit import Context
+        from gearrom.calibrate.model import build_run_model
+        from gearrom.calibrate.select import joint_refit
 
         acc = [t for t in ctx.accepted if not isinstance(t.cand, RigMode)]
-        if not acc or not self.interacts:
-            return None
-        kin = []
-        for r in range(len(ctx.models)):
-            ch = verification_changes(ctx, acc, r)[0]["changes"]
-            kin.append({k: ch[k] for k in ("kinematic_in", "kinematic_out") if ch[k] is not None} or None)
-        if not any(kin):
-            return None
-        return self.response_change(ctx, scale, kin)
-
-    def moved_columns(self, ctx: Context, trial, blocks: list) -> list:
-        """Per linear column of the accepted effects (``blocks``: (trial, columns) pairs), the change the
-        fitted rig scale brings to it (per-run list): the joint refit solves the linear sizes with the
-        columns of the re-tuned rig. A column's kinematic table is its effect's table for that component
-        alone (the fitted size, or 1 when it is zero) per unit."""
-        scale = float(trial.x[0])
+        sim = _Retuned(ctx.sim, ((self.param, scale),))
+        key = ("retuned_models", self.param, round(scale, 6))
+        if key not in ctx._ste:
+            ctx._ste[key] = [build_run_model(sim, m.run) for m in ctx.models]
+        models = ctx._ste[key]
+        cs = Context(models, sim, ctx.s, ctx.pair, ctx.micro_model, ctx.micro_nominal)
+        R0 = cs.stack([m.run.y - m.nominal for m in models])
+        refit = []
+        for t in acc:
+            R = R0 - sum((cs.stack(u.contrib) for u in refit), np.zeros_like(R0))
+            try:
+                u = t.cand.fit(cs, R)
+            except Exception as exc:  # noqa: BLE001  (an effect that cannot be refitted keeps its fit)
+                log.warning("%r could not be refitted on the re-tuned rig: %s", t.cand, exc)
+                u = None
+            refit.append(u if u is not None else t)
+        refit = joint_refit(cs, refit, R0)
         out = []
-        for t, cols in blocks:
-            for j in range(len(cols)):
-                xj = np.zeros_like(np.asarray(t.x, float))
-                xj[j] = t.x[j] if t.x[j] != 0 else 1.0
-                kin = []
-                for r in range(len(ctx.models)):
-                    ch = t.cand.changes(xj, t.info, ctx, r)
-                    kin.append({k: v / xj[j] for k, v in ch.items() if k in ("kinematic_in", "kinematic_out")
-                                and v is not None} or None)
-                out.append(self.response_change(ctx, scale, kin))
-        return out
+        for r, (m, ms) in enumerate(zip(ctx.models, models)):
+            total = ms.nominal - m.nominal + sum(u.contrib[r] for u in refit)
+            out.append(total - sum(t.contrib[r] for t in acc))
+        return out, [ms.psi for ms in models], refit
 
     def fit(self, ctx, R, x0: float | None = None):
-        """Bounded search of the scale in log space: two probes (one ladder step down and up) screen the
-        parameter, then the search walks towards the better probe on the simulator's ladder for this
-        parameter (default x1.25 steps over 0.4..2.5) and refines between the neighbours of the best step.
-        ``x0``: refine around a previous estimate only (joint refit)."""
+        """Bounded search of the scale in log space on the simulator's ladder for this parameter (default
+        x1.25 steps over 0.4..2.5). A fine ladder is screened by two probes (one step down and up), then
+        walked towards the better probe; a short, wide ladder is scored whole. Either way the search then
+        refines between the neighbours of the best step. ``x0``: refine around a previous estimate only
+        (joint refit)."""
         lo_s, hi_s, ratio = (ctx.sim.search_range(self.param) if hasattr(ctx.sim, "search_range")
                              else (0.4, 2.5, 1.25))
         cache = {}
@@ -141,13 +130,12 @@ class RigMode(Candidate):
         def dss(logs):
             s = round(math.exp(logs), 6)
             if s not in cache:
-                c, psis, alone = self._contrib(ctx, s)
+                c, psis, refit = self._contrib(ctx, s)
                 v = ctx.stack(c)
-                cache[s] = (float(2 * v @ R - v @ v), c, psis, alone)
+                cache[s] = (float(2 * v @ R - v @ v), c, psis, refit)
             return cache[s][0]
 
         step = math.log(ratio)
-        down, up = round(1.0 / ratio, 6), round(ratio, 6)
         ladder = [k * step for k in range(math.ceil(math.log(lo_s) / step - 1e-9),
                                           math.floor(math.log(hi_s) / step + 1e-9) + 1) if k]
         wide = len(ladder) <= SCAN_STEPS
@@ -155,11 +143,13 @@ class RigMode(Candidate):
             g0 = math.log(x0)
             lo, hi = g0 - step, g0 + step
         else:
-            probes = {-step: dss(-step), step: dss(step)}
+            # a wide ladder is scored whole (its response need not grow monotonically from 1), a fine one
+            # is screened by its first step either side
+            probes = {g: dss(g) for g in (ladder if wide else (-step, step))}
             if max(probes.values()) < PROBE_SHARE * float(R @ R):
-                s = down if probes[-step] >= probes[step] else up
+                s = round(math.exp(max(probes, key=probes.get)), 6)
                 return Trial(self, np.array([s]), cache[s][1], max(probes.values()), 1,
-                             {"parameter": self.param, "psi_runs": cache[s][2], "alone": cache[s][3],
+                             {"parameter": self.param, "psi_runs": cache[s][2], "refit": cache[s][3],
                               "screened": True})
             best = max(probes, key=probes.get)
             direction = -1.0 if best < 0 else 1.0
@@ -183,8 +173,13 @@ class RigMode(Candidate):
         s = max(cache, key=lambda k: cache[k][0])
         if -r.fun > cache[s][0]:
             s = round(math.exp(float(r.x)), 6)
-        return Trial(self, np.array([s]), cache[s][1], cache[s][0], 1,
-                     {"parameter": self.param, "psi_runs": cache[s][2], "alone": cache[s][3]})
+        # the scales the data do not tell apart from the best: within RIG_AMBIGUITY of its explained energy
+        # (the whole search only: a refit around x0 sees a bracket and keeps the selection's range)
+        info = {"parameter": self.param, "psi_runs": cache[s][2], "refit": cache[s][3]}
+        if x0 is None:
+            near = [k for k, v in cache.items() if v[0] >= (1 - RIG_AMBIGUITY) * cache[s][0]] if cache[s][0] > 0 else [s]
+            info.update(scale_range=(min(near), max(near)), search_range=(lo_s, hi_s))
+        return Trial(self, np.array([s]), cache[s][1], cache[s][0], 1, info)
 
     def refit(self, ctx, R, previous):
         return self.fit(ctx, R, x0=float(previous.x[0]))
@@ -192,6 +187,14 @@ class RigMode(Candidate):
     def report(self, x, info):
         s = float(x[0])
         out = {"parameter": self.param, "scale": s}
+        if "scale_range" in info:
+            lo, hi = info["scale_range"]
+            out["scale_range"] = [float(lo), float(hi)]
+            lo_s, hi_s = info.get("search_range", (0.0, math.inf))
+            if hi >= hi_s * (1 - 1e-6) and lo > 1:
+                out["scale_is_lower_bound"] = True   # as good up to the end of the search: stiffer than lo
+            if lo <= lo_s * (1 + 1e-6) and hi < 1:
+                out["scale_is_upper_bound"] = True
         modes0 = getattr(self.sim_ref, "modes_hz", lambda *_: [])() if hasattr(self, "sim_ref") else []
         modes1 = self.sim_ref.modes_hz(((self.param, s),)) if modes0 else []
         if modes0 and modes1 and len(modes0) == len(modes1):
@@ -220,7 +223,12 @@ class Plugin(EffectPlugin):
 
     def evidence(self, ctx, trial, D):
         rep = trial.cand.report(trial.x, trial.info)
-        txt = f"; the residual follows a re-tuned rig ({trial.info.get('parameter')} x{rep['scale']:.3g})"
+        txt = f"; the residual follows a re-tuned rig ({trial.info.get('parameter')} x{rep['scale']:.3g}"
+        if rep.get("scale_is_lower_bound"):
+            txt += f"; at least x{rep['scale_range'][0]:.3g}: larger scales fit as well"
+        elif rep.get("scale_is_upper_bound"):
+            txt += f"; at most x{rep['scale_range'][1]:.3g}: smaller scales fit as well"
+        txt += ")"
         if "frequency_hz" in rep:
             txt += (f", which moves a mode from {rep['nominal_frequency_hz']:.0f} to {rep['frequency_hz']:.0f} Hz "
                     "and changes the response of the lines near it")
