@@ -1,7 +1,8 @@
 """The command line's JSON outputs for the bundled configs equal those saved from the code before the
 restructuring into plugins and registries (``tests/data/cli_baseline``, written by ``tests/cli_baseline.py``
 on the commit named in its ``baseline.json``), within numerical noise (relative 1e-6). Keys that depend on
-the machine, the time or the checkout (``cli_baseline.VOLATILE``) are not compared.
+the machine, the time or the checkout (``cli_baseline.VOLATILE``) are not compared. ``validate_spur`` reads
+the stored explicit FE reference, which is data: its baseline is saved again when that record is replaced.
 """
 from __future__ import annotations
 

@@ -224,16 +224,15 @@ def test_stiffer_support_is_found_with_a_displaced_tooth(rom_diagnosed):
     it changes how the tooth's pulse reaches the encoders, so each scale is judged with the tooth refitted
     on the re-tuned rig (a profile). Above about 10 x the support no longer limits the drivetrain, so the
     range may reach the end of the search (a lower bound)."""
-    import dataclasses
-
-    from conftest import SELF_MADE
+    from gearrom.calibrate import FitSettings
     from gearrom.rom import rig_parameters
 
     keys = ("rig.bearings.ball_radial_N_per_um", "rig.bearings.ball_axial_N_per_um",
             "rig.bearings.needle_radial_N_per_um")
     p = rig_parameters("thesis-rig")
     inj = RomInjected(pitch=(PitchDeviations(0, one_tooth(32, 7, 15e-6)),), overrides={k: 10 * p[k] for k in keys})
-    settings = dataclasses.replace(SELF_MADE, rig_parameters=SELF_MADE.rig_parameters + ("k_support",))
+    # the suite's settings for self-made data (no model floor: the data come from the diagnosis' own ROM)
+    settings = FitSettings(model_floor_um=0.0, rig_parameters=FitSettings().rig_parameters + ("k_support",))
     res, _ = rom_diagnosed("support_pitch", inj, settings=settings)
     found = {e["effect"]: e for e in res.effects}
     assert "pitch_error" in found, res.text()
