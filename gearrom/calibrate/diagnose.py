@@ -21,7 +21,7 @@ import gearrom.calibrate.characterize as chz
 from gearrom.calibrate.candidates import make_candidates
 from gearrom.calibrate.fit import Context, FitSettings, Trial
 from gearrom.calibrate.microfe import FEMicroModel
-from gearrom.calibrate.model import build_run_model
+from gearrom.calibrate.model import build_run_model, index_mesh_phase
 from gearrom.calibrate.report import DiagnosisResult, RunTraces
 from gearrom.calibrate.registry import LIBRARY, PLUGINS
 from gearrom.calibrate.residual import load_run, rms
@@ -89,7 +89,8 @@ def diagnose(config: str | Path, measurements: Sequence[str | Path], *, simulato
         te_settings = te_settings or te_cfg
     runs = [load_run(p, mesh, torque_out_Nm, read_settings, te_settings) for p in measurements]
     sim = simulator or default_simulator(cfg)
-    models = [build_run_model(sim, r) for r in runs]
+    psi0 = index_mesh_phase(cfg)
+    models = [build_run_model(sim, r, psi_default=psi0) for r in runs]
     micro_model = micro_model or getattr(sim, "micro_model", None) or FEMicroModel()
     micro_nominal = getattr(sim, "micro", None) or MicroMods.from_pair(pair)
     ctx = Context(models, sim, settings, pair, micro_model, micro_nominal)

@@ -99,8 +99,13 @@ def conditions(run: RunData) -> RunConditions:
     return RunConditions(rpm_in=run.rpm_in, torque_out_Nm=run.torque_out_Nm, duration_s=run.duration_s * 1.05 + 2e-3)
 
 
-def build_run_model(sim: Simulator, run: RunData, *, with_sensitivity: bool = True) -> RunModel:
-    """Nominal simulation, mesh-phase estimate and sensitivities for one run (see module docstring)."""
+def build_run_model(sim: Simulator, run: RunData, *, with_sensitivity: bool = True,
+                    psi_default: float = 0.0) -> RunModel:
+    """Nominal simulation, mesh-phase estimate and sensitivities for one run (see module docstring).
+
+    ``psi_default`` (rad of input angle): the mesh phase where the GMF lines cannot align the model
+    (records that start at the encoder index of a rig whose index position a diagnosis found, see
+    :func:`index_mesh_phase`)."""
     cond = conditions(run)
     z1 = run.mesh.z1
     noise = noise_rms(run.y[0], run.fs_hz)
@@ -113,6 +118,8 @@ def build_run_model(sim: Simulator, run: RunData, *, with_sensitivity: bool = Tr
     gm = gm3[0]
     gmeas = fit_lines(run.y[0], run.theta_in_rad, run.theta_out_rad, lines)
     psi, ok = estimate_mesh_phase(gmeas, gm, z1, noise / 1e-6 / math.sqrt(max(run.y.shape[1], 1) / 2))
+    if not ok:
+        psi = float(psi_default)
     hn = sim.simulate(cond, ModelChanges(mesh_phase_rad=psi)) if psi else h0
     nominal = map_to_run(hn, run)
     rm = RunModel(run=run, cond=cond, psi=psi, psi_identifiable=ok, nominal=nominal, gmf_model=gm, gmf_meas=gmeas,
@@ -121,6 +128,25 @@ def build_run_model(sim: Simulator, run: RunData, *, with_sensitivity: bool = Tr
         for shaft in ("input", "output"):
             rm.H[shaft] = _sensitivity(sim, rm, hn, shaft)
     return rm
+
+
+def index_mesh_phase(cfg) -> float:
+    """``[calibrate] index_mesh_phase_deg`` of a config, rad (0 when absent).
+
+    The input gear's angle at the encoder index, from tooth 0's entry into mesh: what a diagnosis finds
+    when a tooth-local error fixes where the teeth stand (``gearrom diagnose --write-config`` writes it).
+    It applies to records that start at the index and whose GMF lines are too small to align the model.
+
+    Raises
+    ------
+    CalibrationError
+        The key is not a number.
+    """
+    v = cfg.section("calibrate").get("index_mesh_phase_deg", 0.0)
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+        raise CalibrationError(f"{cfg.source or cfg.name}: calibrate.index_mesh_phase_deg must be a finite number "
+                               f"of degrees, got {v!r}")
+    return math.radians(float(v))
 
 
 def realigned(rm: RunModel, hist) -> tuple[np.ndarray, float]:

@@ -183,6 +183,25 @@ def adopt_refit(accepted: list[Trial], rig: Trial) -> list[Trial]:
     return out
 
 
+def linear_refit(ctx: Context, trials: list[Trial], R: np.ndarray) -> list[Trial]:
+    """The effects' sizes fitted together on ``R`` by one bounded least squares over their linear columns
+    (:meth:`linear_columns`, evaluated on ``ctx``'s models), shapes and positions kept."""
+    blocks = [t.cand.linear_columns(ctx, t.info) for t in trials]
+    cols = [c for b in blocks for c in b[0]]
+    lo = np.concatenate([np.broadcast_to(b[1], (len(b[0]),)) for b in blocks])
+    hi = np.concatenate([np.broadcast_to(b[2], (len(b[0]),)) for b in blocks])
+    A = np.column_stack([ctx.stack(c) for c in cols])
+    x = lsq_linear(A, R, bounds=(lo, hi)).x
+    out, j = [], 0
+    for t, b in zip(trials, blocks):
+        n = len(b[0])
+        xi = x[j:j + n]
+        contrib = [sum(xi[q] * b[0][q][r] for q in range(n)) for r in range(len(ctx.models))]
+        out.append(Trial(t.cand, xi, contrib, t.dss, t.n_par, t.info))
+        j += n
+    return out
+
+
 def joint_refit(ctx: Context, accepted: list[Trial], R0: np.ndarray, sweeps: int = 3) -> list[Trial]:
     """Refit all accepted effects together: one bounded least squares over the linear ones, alternated
     with refits of the non-linear ones (micro-geometry, rig parameters) on what the others leave."""
@@ -202,20 +221,8 @@ def joint_refit(ctx: Context, accepted: list[Trial], R0: np.ndarray, sweeps: int
         non = [i for i in range(len(accepted)) if i not in lin]
         if lin:
             R = R0 - sum((ctx.stack(accepted[i].contrib) for i in non), zero)
-            blocks = [accepted[i].cand.linear_columns(ctx, accepted[i].info) for i in lin]
-            cols = [c for b in blocks for c in b[0]]
-            lo = np.concatenate([np.broadcast_to(b[1], (len(b[0]),)) for b in blocks])
-            hi = np.concatenate([np.broadcast_to(b[2], (len(b[0]),)) for b in blocks])
-            A = np.column_stack([ctx.stack(c) for c in cols])
-            x = lsq_linear(A, R, bounds=(lo, hi)).x
-            j = 0
-            for i, b in zip(lin, blocks):
-                n = len(b[0])
-                xi = x[j:j + n]
-                t = accepted[i]
-                contrib = [sum(xi[q] * b[0][q][r] for q in range(n)) for r in range(len(ctx.models))]
-                accepted[i] = Trial(t.cand, xi, contrib, t.dss, t.n_par, t.info)
-                j += n
+            for i, t in zip(lin, linear_refit(ctx, [accepted[i] for i in lin], R)):
+                accepted[i] = t
         for i in non:
             others = sum((ctx.stack(u.contrib) for j2, u in enumerate(accepted) if j2 != i), zero)
             t = accepted[i]

@@ -61,6 +61,12 @@ class Tunable:
         The diagnosis judges each scale with the accepted effects refitted on the re-tuned rig (a
         profile): for a parameter that changes how a kinematic error reaches the encoders over its
         search range.
+    linear : bool
+        The profile takes the re-tuned rig's response to a kinematic error from the simulated nominal
+        response times the change of the linearized drivetrain's response (:meth:`RomSimulator.response_ratio`)
+        instead of re-simulating every scale: for a parameter that moves a low rig mode and leaves the
+        mesh alone (an inertia or a coupling of the drive or the load). The verification re-simulates
+        the chosen scale.
     """
 
     keys: tuple[str, ...]
@@ -69,15 +75,17 @@ class Tunable:
     hi: float = 2.5
     step: float = 1.25
     interacts: bool = False
+    linear: bool = False
 
 
 #: Rig parameters the ROM adapter can scale. The bearing supports are an assumption of most rig configs
 #: (catalogue stiffnesses, housing compliance unknown) and matter through the helical mesh's axial and
 #: tilting forces, so their scale is searched over three decades.
 ROM_TUNABLE = {
-    "k_clutch": Tunable(("rig.clutch.stiffness_Nm_per_rad",), "clutch/coupling torsional stiffness"),
-    "J_load": Tunable(("rig.load.inertia_kg_m2",), "load-side inertia"),
-    "J_motor": Tunable(("rig.motor.inertia_kg_m2",), "motor rotor inertia"),
+    "k_clutch": Tunable(("rig.clutch.stiffness_Nm_per_rad",), "clutch/coupling torsional stiffness",
+                        interacts=True, linear=True),
+    "J_load": Tunable(("rig.load.inertia_kg_m2",), "load-side inertia", interacts=True, linear=True),
+    "J_motor": Tunable(("rig.motor.inertia_kg_m2",), "motor rotor inertia", interacts=True, linear=True),
     "k_support": Tunable(("rig.bearings.ball_radial_N_per_um", "rig.bearings.ball_axial_N_per_um",
                           "rig.bearings.needle_radial_N_per_um"),
                          "bearing support stiffness (ball radial and axial, needle radial, scaled together)",
@@ -119,6 +127,7 @@ class RomSimulator:
         self.settle_s = round(settle_s * sample_rate_hz) / sample_rate_hz
         self._models: dict = {}
         self._modes: dict = {}
+        self._linear: dict = {}
         from gearrom.config import as_config
 
         self.pair = as_config(config).pair
@@ -135,6 +144,46 @@ class RomSimulator:
     def interacts(self, name: str) -> bool:
         """Whether rig parameter ``name`` is fitted together with the accepted kinematic errors."""
         return ROM_TUNABLE[name].interacts
+
+    def linear_interaction(self, name: str) -> bool:
+        """Whether the profile of rig parameter ``name`` may use :meth:`response_ratio`."""
+        return ROM_TUNABLE[name].linear
+
+    def response_ratio(self, rpm_in: float, torque_out_Nm: float, rig_scale: tuple, freqs_hz) -> np.ndarray:
+        """Complex ratio (3, n) of the re-tuned to the nominal rig's linear response to a kinematic error at
+        the mesh, for ``te``, ``u_in`` and ``u_out`` (the encoder angles times the base radii) at ``freqs_hz``.
+
+        From the linearized drivetrain at the mean mesh stiffness (:func:`gearrom.rom.frf.state_matrices`,
+        its input the static TE; a kinematic error enters the same way), in modal form. Where the nominal
+        response of a channel is below 1e-3 of its largest, the ratio is 1 (nothing to scale).
+        """
+        s = 2j * math.pi * np.asarray(freqs_hz, float)
+        nom, new = (self._modal_io(rpm_in, torque_out_Nm, sc) for sc in ((), tuple(rig_scale)))
+        resp = [cv @ (w[:, None] / (s[None, :] - lam[:, None])) for cv, w, lam in (nom, new)]
+        big = np.abs(resp[0]) >= 1e-3 * np.abs(resp[0]).max(axis=1, keepdims=True)
+        return np.where(big, resp[1] / np.where(big, resp[0], 1.0), 1.0)
+
+    def _modal_io(self, rpm_in: float, torque: float, rig_scale: tuple):
+        """``(C V, V^-1 B, eigenvalues)`` of the linearized drivetrain from the static TE to te, u_in, u_out."""
+        key = (round(rpm_in, 6), round(torque, 6), tuple((str(n), round(float(v), 9)) for n, v in rig_scale))
+        if key not in self._linear:
+            from gearrom.rom.components import RZ
+            from gearrom.rom.frf import state_matrices
+
+            model = self._model(None, torque, rig_scale)
+            A, B, C, names = state_matrices(model, rpm_in, torque)
+            rows = [C[names.index("dte_sensor")]]
+            for shaft, rb in (("in", self.pair.rb[0]), ("out", self.pair.rb[1])):
+                enc = [e for e in model.encoders if e.side == "sensor" and e.shaft == shaft]
+                c = np.zeros(A.shape[0])
+                c[model.index(enc[0].station, RZ)] = rb
+                rows.append(c)
+            from threadpoolctl import threadpool_limits
+
+            with threadpool_limits(limits=1, user_api="blas"):  # a small dense problem: threads only stall
+                lam, V = np.linalg.eig(A)
+                self._linear[key] = (np.vstack(rows) @ V, np.linalg.solve(V, B[:, 0]), lam)
+        return self._linear[key]
 
     def modes_hz(self, rig_scale=()) -> list[tuple[float, float]]:
         key = tuple((str(n), round(float(v), 9)) for n, v in rig_scale)

@@ -50,6 +50,12 @@ def state_space(model: Drivetrain, rpm_in: float, torque_out: float | None = Non
     """
     import control
 
+    A, B, C, names = state_matrices(model, rpm_in, torque_out)
+    return control.ss(A, B, C, np.zeros((C.shape[0], 1)), inputs=["ste"], outputs=names)
+
+
+def state_matrices(model: Drivetrain, rpm_in: float, torque_out: float | None = None):
+    """``(A, B, C, output names)`` of :func:`state_space` as arrays (states ``(x, v)``, input the STE [m])."""
     torque = float(model.metadata.get("torque_out_Nm", 120.0) if torque_out is None else torque_out)
     M, K, D = model.linear(rpm_in, torque)
     k = model.mesh_stiffness(torque)
@@ -61,8 +67,7 @@ def state_space(model: Drivetrain, rpm_in: float, torque_out: float | None = Non
     A = np.block([[np.zeros((n, n)), np.eye(n)], [-Minv @ K, -Minv @ D]])
     B = np.concatenate([mw * c, Minv @ (w * k) - Minv @ D @ mw * c])[:, None]
     Cx, names = output_matrix(model)
-    C = np.hstack([Cx, np.zeros_like(Cx)])
-    return control.ss(A, B, C, np.zeros((C.shape[0], 1)), inputs=["ste"], outputs=names)
+    return A, B, np.hstack([Cx, np.zeros_like(Cx)]), names
 
 
 def gmf_estimate(model: Drivetrain, rpms, torque_out: float | None = None, orders: int = 3,

@@ -100,3 +100,34 @@ def test_cli_refuses_a_non_toml_output_before_the_diagnosis(tmp_path, capsys):
     rc = main(["diagnose", "thesis-rig", str(tmp_path / "m.json"), "--write-config", str(tmp_path / "x.json")])
     assert rc != 0
     assert "--write-config" in capsys.readouterr().err
+
+
+def test_sub_pitch_tooth_position_fixes_the_index_mesh_phase(tmp_path):
+    """A tooth fitted 4.5 pitches from the record's zero on a record whose GMF lines left the mesh phase free:
+    the written config states the mesh phase that puts it on a whole tooth (-0.5 pitch = -5.625 deg of input
+    angle on z1 = 32), writes the deviation on that tooth (4), and the diagnosis reads the phase back."""
+    from gearrom.calibrate.model import index_mesh_phase
+
+    s = _summary({"effect": "pitch_error", "target": "input_gear",
+                  "parameters": {"tooth_index": 4, "tooth_position_pitch": 4.5, "deviation_um": -6.0}})
+    s["runs"][0].update(mesh_phase_estimated=False, mesh_phase_model_rad=0.0)
+    out = write_config(s, "thesis-rig", tmp_path / "p.toml")
+    cfg = load_config(out)
+    assert cfg.raw["calibrate"]["index_mesh_phase_deg"] == pytest.approx(-0.5 * 360.0 / 32)
+    assert index_mesh_phase(cfg) == pytest.approx(math.radians(-0.5 * 360.0 / 32))
+    fp = cfg.raw["input_gear"]["microgeometry"]["pitch_deviations_um"]
+    assert fp[4] == pytest.approx(6.0) and fp[5] == pytest.approx(-6.0)  # ROM sign: +6 on tooth 4, -6 on 5
+    # a record whose GMF lines fixed the mesh phase keeps it: nothing is written
+    s["runs"][0]["mesh_phase_estimated"] = True
+    doc, _ = diagnosed_config(s, "thesis-rig")
+    assert "calibrate" not in doc
+
+
+def test_index_mesh_phase_that_is_not_a_number_is_named(tmp_path):
+    from gearrom.calibrate.model import index_mesh_phase
+    from gearrom.errors import CalibrationError
+
+    p = tmp_path / "bad.toml"
+    p.write_text('extends = "thesis-rig"\n[calibrate]\nindex_mesh_phase_deg = "north"\n')
+    with pytest.raises(CalibrationError, match="calibrate.index_mesh_phase_deg"):
+        index_mesh_phase(load_config(p))

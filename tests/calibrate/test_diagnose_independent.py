@@ -9,7 +9,9 @@ out-of-library) runs in ``benchmarks/bench_diagnose_independent.py``.
 """
 from __future__ import annotations
 
+import json
 import math
+import tomllib
 import warnings
 
 import pytest
@@ -37,10 +39,19 @@ def combined(tmp_path_factory):
 
 def test_proud_tooth_and_runout_found_and_sized(combined):
     """Both effects named with the right targets, sizes within 25 %, tooth index within one tooth (the two
-    models place the pulse within a pitch), out-of-tolerance flagged, uncertainties given, error halved."""
-    s, _ = combined
+    models place the pulse within a pitch), out-of-tolerance flagged, uncertainties given, error halved.
+
+    datasim's rig is not gearrom's: its first torsional mode (drive against load, in the record's truth)
+    lies above the ROM's. The pulse train of the proud tooth passes that mode, so a re-tuned rig parameter
+    may join the two errors; if it does, it must move the ROM's mode towards datasim's."""
+    s, files = combined
     found = {(e["effect"], e["target"]): e for e in s["effects"]}
+    rig = found.pop(("torsional_mode", None), None)
     assert set(found) == {("eccentricity", "output_gear"), ("pitch_error", "input_gear")}, s["effects"]
+    if rig is not None:
+        truth_hz = json.loads(files[0].read_text())["extra"]["truth"]["modes_hz"][0][0]
+        p = rig["parameters"]
+        assert abs(p["frequency_hz"] - truth_hz) < abs(p["nominal_frequency_hz"] - truth_hz), p
     ecc, pit = found[("eccentricity", "output_gear")], found[("pitch_error", "input_gear")]
     assert ecc["parameters"]["amplitude_um"] == pytest.approx(22.0, rel=0.25)
     assert abs((ecc["parameters"]["phase_deg"] - 120.0 + 180) % 360 - 180) < 10.0
@@ -61,11 +72,14 @@ def _size(e):
 
 def test_written_config_forecasts_a_third_speed(combined, tmp_path):
     """``--write-config`` then the written config, as the nominal model, on the 1600 rpm record that the
-    diagnosis did not see: its error is at most 1.5 x the diagnosis' after-error (the ROM places a
-    displaced tooth on whole pitches, the fit on 1/8 pitch) and removes at least 80 % of the original
-    config's error at that speed."""
+    diagnosis did not see: its error is at most 1.5 x the diagnosis' after-error (the two rigs differ beyond
+    one scaled parameter: datasim's drive mode is less damped than the re-tuned ROM's, and its mesh law
+    shapes the tooth pulse differently) and removes at least 80 % of the original config's error at that
+    speed. The helical pair's GMF lines leave the mesh phase free, so the written config states the
+    encoder index's position that puts the fitted tooth on a whole pitch of the model."""
     s, files = combined
     out = write_config(s, "thesis-rig", tmp_path / "diagnosed.toml")
+    assert "index_mesh_phase_deg" in tomllib.loads(out.read_text())["calibrate"]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         new = diagnose(str(out), files[2:], settings=FitSettings(max_effects=0)).summary

@@ -84,13 +84,14 @@ class PitchError(Candidate):
         return self._patterns[key]
 
     def _basis(self, r: int, m) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Orders, response ``H`` (3, Q) and ``exp(i q theta)`` (n, Q) of run ``r`` of model ``m`` (cached per
-        model: a re-tuned rig's models of the same runs have their own responses)."""
-        key = (r, id(m))
+        """Orders, response ``H`` (3, Q) and ``exp(i q theta)`` (n, Q) of run ``r`` of model ``m`` (the
+        response is the model's own: a re-tuned rig's models of the same run have theirs; the order basis
+        is cached per run)."""
+        orders, H = m.H[shaft_of(self.target)]
+        key = (r, id(m.run))
         if key not in self._bases:
-            orders, H = m.H[shaft_of(self.target)]
-            self._bases[key] = (m, orders, H, np.exp(1j * np.outer(shaft_angle(m, shaft_of(self.target)), orders)))
-        return self._bases[key][1:]
+            self._bases[key] = (m.run, np.exp(1j * np.outer(shaft_angle(m, shaft_of(self.target)), orders)))
+        return orders, H, self._bases[key][1]
 
     def _coeffs(self, r: int, m, pat: np.ndarray) -> np.ndarray:
         """``G`` (3, Q): the signals' complex order amplitudes for the pattern at position 0."""
@@ -180,7 +181,8 @@ class PitchError(Candidate):
         return [cols], np.array([-self.bound]), np.array([self.bound])
 
     def report(self, x, info):
-        out = {"tooth_index": int(info["tooth_index"]), "deviation_um": float(x[0])}
+        out = {"tooth_index": int(info["tooth_index"]), "deviation_um": float(x[0]),
+               "tooth_position_pitch": _mean_position(info["position_rad"], info["z"])}
         if info.get("lower_bound"):
             out["deviation_is_lower_bound"] = True  # the tooth leaves contact: any larger setback fits as well
         if len(set(info["tooth_index_per_run"])) > 1:
@@ -193,6 +195,15 @@ class PitchError(Candidate):
         th = np.arange(N_TABLE) * 2 * math.pi / N_TABLE
         tab = periodic_sample(pat, th, info["position_rad"][run])
         return {"kinematic_in" if shaft_of(self.target) == "input" else "kinematic_out": tab - tab.mean()}
+
+
+def _mean_position(position_rad, z: int) -> float:
+    """The fitted tooth position in pitches from the record's angle zero (tooth index and the sub-pitch
+    offset between the encoder zero and the teeth): the runs' mean where they agree within a pitch (runs
+    from a common index differ only by the drivetrain's lag), else the first run's."""
+    p = np.asarray(position_rad, float) * z / (2 * math.pi)
+    d = (p - p[0] + z / 2) % z - z / 2
+    return float(p[0] + d.mean()) if np.ptp(d) <= 1.0 else float(p[0])
 
 
 class Plugin(EffectPlugin):
@@ -217,7 +228,7 @@ class Plugin(EffectPlugin):
         gi = GEARS.index(target)
         z = draft.pair.z[gi]
         # the ROM follows tooth k from its entry at gear angle 2 pi k / z, as the diagnosis' tooth model
-        k = int(round(params["tooth_index"] + draft.shift_deg[target] * z / 360.0)) % z
+        k = int(round(params.get("tooth_position_pitch", params["tooth_index"]) + draft.shift_deg[target] * z / 360.0)) % z
         a = -float(params["deviation_um"]) if gi == 0 else float(params["deviation_um"])  # TE sign of the ROM
         s = draft.micro_section(target)
         fp = list(map(float, s.get("pitch_deviations_um", [0.0] * z)))

@@ -51,16 +51,32 @@ SCAN_STEPS = 6  # a search ladder of at most this many scales (besides 1) is eva
 PROBE_SHARE = 0.02  # share of the residual energy a rig parameter must explain at x0.8 or x1.25 to be searched
 
 
+def _linear_models(ctx: Context, param: str, scale: float) -> list:
+    """The runs' models on a rig with ``param`` scaled, from the linearized drivetrain: each shaft's
+    simulated response ``H(q)`` times the ratio of the re-tuned to the nominal linear response at that
+    order's frequency; the nominal signals are kept (a low rig mode leaves the mesh lines alone)."""
+    out = []
+    for m in ctx.models:
+        H = {}
+        for shaft, (orders, h) in m.H.items():
+            f_shaft = m.run.rpm_in / 60.0 * (1.0 if shaft == "input" else m.run.mesh.ratio)
+            ratio = ctx.sim.response_ratio(m.run.rpm_in, m.run.torque_out_Nm, ((param, scale),), orders * f_shaft)
+            H[shaft] = (orders, h * ratio)
+        out.append(dataclasses.replace(m, H=H))
+    return out
+
+
 class RigMode(Candidate):
     """One rig parameter scaled, by re-simulation (one per diagnosis; dropped once it explains nothing)."""
 
     exclusive = True
     expensive = True
 
-    def __init__(self, param: str, interacts: bool = False):
+    def __init__(self, param: str, interacts: bool = False, linear: bool = False):
         super().__init__("torsional_mode", "")
         self.param = param
         self.interacts = interacts
+        self.linear = linear
 
     def __repr__(self):
         return f"torsional_mode[{self.param}]"
@@ -71,6 +87,8 @@ class RigMode(Candidate):
         the mesh phase re-estimated from the re-tuned model's own GMF lines."""
         if self.interacts and any(not isinstance(t.cand, RigMode) for t in ctx.accepted):
             return self._profile(ctx, scale)
+        if self.linear:  # a low rig mode alone leaves the nominal model's mesh lines as they are
+            return [np.zeros_like(m.nominal) for m in ctx.models], [m.psi for m in ctx.models], None
         out, psis = [], []
         for m in ctx.models:
             mapped, psi = realigned(m, ctx.sim.simulate(m.cond, ModelChanges(rig_scale=((self.param, scale),))))
@@ -91,16 +109,23 @@ class RigMode(Candidate):
         """
         from gearrom.calibrate.fit import Context
         from gearrom.calibrate.model import build_run_model
-        from gearrom.calibrate.select import joint_refit
+        from gearrom.calibrate.select import joint_refit, linear_refit
 
         acc = [t for t in ctx.accepted if not isinstance(t.cand, RigMode)]
         sim = _Retuned(ctx.sim, ((self.param, scale),))
         key = ("retuned_models", self.param, round(scale, 6))
         if key not in ctx._ste:
-            ctx._ste[key] = [build_run_model(sim, m.run) for m in ctx.models]
+            ctx._ste[key] = (_linear_models(ctx, self.param, scale) if self.linear else
+                             [build_run_model(sim, m.run, psi_default=m.psi) for m in ctx.models])
         models = ctx._ste[key]
         cs = Context(models, sim, ctx.s, ctx.pair, ctx.micro_model, ctx.micro_nominal)
         R0 = cs.stack([m.run.y - m.nominal for m in models])
+        if self.linear:  # a low mode moves: the effects keep shapes and positions, their sizes are refitted
+            lin = [t for t in acc if hasattr(t.cand, "linear_columns")]
+            R = R0 - sum((cs.stack(t.contrib) for t in acc if t not in lin), np.zeros_like(R0))
+            new = dict(zip(map(id, lin), linear_refit(cs, lin, R))) if lin else {}
+            refit = [new.get(id(t), t) for t in acc]
+            return self._change(ctx, models, acc, refit)
         refit = []
         for t in acc:
             R = R0 - sum((cs.stack(u.contrib) for u in refit), np.zeros_like(R0))
@@ -110,7 +135,12 @@ class RigMode(Candidate):
                 log.warning("%r could not be refitted on the re-tuned rig: %s", t.cand, exc)
                 u = None
             refit.append(u if u is not None else t)
-        refit = joint_refit(cs, refit, R0)
+        return self._change(ctx, models, acc, joint_refit(cs, refit, R0))
+
+    @staticmethod
+    def _change(ctx, models, acc, refit) -> tuple[list, list, list]:
+        """Per run: the re-tuned model with the refitted effects minus the nominal one with the accepted
+        effects; the re-tuned models' mesh phases; the refitted effects."""
         out = []
         for r, (m, ms) in enumerate(zip(ctx.models, models)):
             total = ms.nominal - m.nominal + sum(u.contrib[r] for u in refit)
@@ -216,7 +246,8 @@ class Plugin(EffectPlugin):
         out = []
         for p in ctx.s.rig_parameters:
             if p in tun:
-                c = RigMode(p, interacts=bool(getattr(ctx.sim, "interacts", lambda _: False)(p)))
+                c = RigMode(p, interacts=bool(getattr(ctx.sim, "interacts", lambda _: False)(p)),
+                            linear=bool(getattr(ctx.sim, "linear_interaction", lambda _: False)(p)))
                 c.sim_ref = ctx.sim
                 out.append(c)
         return out
