@@ -499,8 +499,11 @@ def solve(model: ExplicitModel, t_end: float, sample_period: float | None = None
                                  probes=probes, parallel=bool(parallel))
             row, first, t0, wall_before = _load_checkpoint(checkpoint, st, out, key, legacy, bounds)
             log.info("explicit: resumed from %s at t = %.4e s (chunk %d of %d)", checkpoint, t0, first, chunks)
-            if first == chunks:
-                _save_checkpoint(checkpoint, st, out, row, first, t0, wall_before, key, bounds)
+            if first == chunks:  # a finished run of the older format is stored in the extendable one
+                with np.load(checkpoint) as z:
+                    older = str(z["format"]) != CHECKPOINT_FORMAT
+                if older:
+                    _save_checkpoint(checkpoint, st, out, row, first, t0, wall_before, key, bounds)
     # the loop's array groups (the state arrays are updated in place; the output rows change per chunk)
     src = {**d, **st, "X": model.nodes, "probes": probes}
     fixed = tuple(tuple(src[k] for k in names) for names in
