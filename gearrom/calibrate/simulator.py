@@ -82,8 +82,7 @@ class Tunable:
 #: (catalogue stiffnesses, housing compliance unknown) and matter through the helical mesh's axial and
 #: tilting forces, so their scale is searched over three decades.
 ROM_TUNABLE = {
-    "k_clutch": Tunable(("rig.clutch.stiffness_Nm_per_rad",), "clutch/coupling torsional stiffness",
-                        interacts=True, linear=True),
+    "k_clutch": Tunable(("rig.clutch.stiffness_Nm_per_rad",), "clutch/coupling torsional stiffness"),
     "J_load": Tunable(("rig.load.inertia_kg_m2",), "load-side inertia", interacts=True, linear=True),
     "J_motor": Tunable(("rig.motor.inertia_kg_m2",), "motor rotor inertia", interacts=True, linear=True),
     "k_support": Tunable(("rig.bearings.ball_radial_N_per_um", "rig.bearings.ball_axial_N_per_um",

@@ -339,6 +339,12 @@ def _save_checkpoint(path: Path, state: dict, out: dict, row: int, chunk: int, t
                  wall=np.array(wall), **arrays)
 
 
+def _older_format(path: Path) -> bool:
+    """Whether the checkpoint at ``path`` is of a format older than :data:`CHECKPOINT_FORMAT`."""
+    with np.load(path) as z:
+        return str(z["format"]) != CHECKPOINT_FORMAT
+
+
 def _load_checkpoint(path: Path, state: dict, out: dict, key: str, legacy_key: str,
                      bounds: np.ndarray) -> tuple[int, int, float, float]:
     """Restore ``state`` and ``out`` in place from ``path``; return (row, next chunk, t0, wall so far).
@@ -499,11 +505,8 @@ def solve(model: ExplicitModel, t_end: float, sample_period: float | None = None
                                  probes=probes, parallel=bool(parallel))
             row, first, t0, wall_before = _load_checkpoint(checkpoint, st, out, key, legacy, bounds)
             log.info("explicit: resumed from %s at t = %.4e s (chunk %d of %d)", checkpoint, t0, first, chunks)
-            if first == chunks:  # a finished run of the older format is stored in the extendable one
-                with np.load(checkpoint) as z:
-                    older = str(z["format"]) != CHECKPOINT_FORMAT
-                if older:
-                    _save_checkpoint(checkpoint, st, out, row, first, t0, wall_before, key, bounds)
+            if first == chunks and _older_format(checkpoint):  # a finished older run: stored extendable
+                _save_checkpoint(checkpoint, st, out, row, first, t0, wall_before, key, bounds)
     # the loop's array groups (the state arrays are updated in place; the output rows change per chunk)
     src = {**d, **st, "X": model.nodes, "probes": probes}
     fixed = tuple(tuple(src[k] for k in names) for names in
