@@ -164,6 +164,11 @@ def realigned(rm: RunModel, hist) -> tuple[np.ndarray, float]:
     return map_to_run(hist, rm.run, angle_shift=psi), psi
 
 
+def shaft_rate_hz(run: RunData, shaft: str) -> float:
+    """Rotation rate of ``shaft`` (``"input"``/``"output"``) in a run, Hz."""
+    return run.rpm_in / 60.0 * (1.0 if shaft == "input" else run.mesh.ratio)
+
+
 def max_order(run: RunData, shaft: str) -> int:
     """Highest shaft order used: 6 GMF harmonics (input) / 2 x teeth (output), below 0.35 fs_work."""
     f_in = run.rpm_in / 60.0
@@ -189,7 +194,7 @@ def _sensitivity(sim: Simulator, rm: RunModel, hnom, shaft: str) -> tuple[np.nda
     blocks = [np.arange(1, split + 1)] + ([np.arange(split + 1, Q + 1)] if Q > split else [])
     _, y0 = sim_signals(hnom, run.mesh)
     fs_sim = 1.0 / float(np.median(np.diff(hnom.t_s)))
-    f_shaft = run.rpm_in / 60.0 * (1.0 if shaft == "input" else run.mesh.ratio)
+    f_shaft = shaft_rate_hz(run, shaft)
     orders_all, H_all = [], []
     for orders in blocks:
         ph = _schroeder(orders.size)

@@ -93,6 +93,11 @@ ROM_TUNABLE = {
 }
 
 
+def _scale_key(rig_scale) -> tuple:
+    """A rig scale ``((name, factor), ...)`` as a hashable cache key (factors rounded to 1e-9)."""
+    return tuple((str(n), round(float(v), 9)) for n, v in rig_scale)
+
+
 class RomSimulator:
     """Adapter to the exudyn ROM (:func:`gearrom.rom.simulate_run`).
 
@@ -164,7 +169,7 @@ class RomSimulator:
 
     def _modal_io(self, rpm_in: float, torque: float, rig_scale: tuple):
         """``(C V, V^-1 B, eigenvalues)`` of the linearized drivetrain from the static TE to te, u_in, u_out."""
-        key = (round(rpm_in, 6), round(torque, 6), tuple((str(n), round(float(v), 9)) for n, v in rig_scale))
+        key = (round(rpm_in, 6), round(torque, 6), _scale_key(rig_scale))
         if key not in self._linear:
             from gearrom.rom.components import RZ
             from gearrom.rom.frf import state_matrices
@@ -185,7 +190,7 @@ class RomSimulator:
         return self._linear[key]
 
     def modes_hz(self, rig_scale=()) -> list[tuple[float, float]]:
-        key = tuple((str(n), round(float(v), 9)) for n, v in rig_scale)
+        key = _scale_key(rig_scale)
         if key not in self._modes:
             try:
                 res = self._rom.modal_analysis(self._model(None, 120.0, key))
@@ -195,7 +200,7 @@ class RomSimulator:
         return list(self._modes[key])
 
     def _model(self, micro: MicroMods | None, torque: float, rig_scale: tuple = ()):
-        key = (micro, round(torque, 6), tuple((str(n), round(float(v), 9)) for n, v in rig_scale))
+        key = (micro, round(torque, 6), _scale_key(rig_scale))
         if key not in self._models:
             import dataclasses
 

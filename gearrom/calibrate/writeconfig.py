@@ -46,14 +46,14 @@ def _micro_base(raw: dict, gear: str, tip_diameter_m: float) -> dict:
     return sec
 
 
-def _index_phase_deg(summary: dict, z: tuple[int, int]) -> float | None:
+def _index_phase_deg(summary: dict, z: tuple[int, int], psi0: float) -> float | None:
     """The mesh phase (deg of input angle) that puts the largest fitted displaced tooth on a whole tooth
     of the model, when the first run's GMF lines could not fix it; None otherwise.
 
     A displaced tooth is fitted on sub-pitch positions from the record's angle zero; the model places
     teeth on whole pitches from its gear angle zero. Where the GMF lines leave the mesh phase free, the
     tooth's position fixes it: the config then states it (``[calibrate] index_mesh_phase_deg``) for
-    records that start at the same encoder index.
+    records that start at the same encoder index. ``psi0``: the first run's mesh phase, deg.
     """
     run0 = summary.get("runs", [{}])[0]
     if run0.get("mesh_phase_estimated", True):
@@ -65,7 +65,6 @@ def _index_phase_deg(summary: dict, z: tuple[int, int]) -> float | None:
     e = max(teeth, key=lambda e: abs(e["parameters"]["deviation_um"]))
     # the model's gear angle is the record's plus psi; on either gear a shift of psi (input angle) moves
     # the tooth by psi z1 / 360 of that gear's pitches
-    psi0 = math.degrees(float(run0.get("mesh_phase_model_rad", 0.0)))
     q = float(e["parameters"]["tooth_position_pitch"]) + psi0 * z[0] / 360.0
     return psi0 + (round(q) - q) * 360.0 / z[0]
 
@@ -99,7 +98,7 @@ def diagnosed_config(summary: dict, config) -> tuple[dict, list[str]]:
     run0 = summary.get("runs", [{}])[0]
     psi_deg = (math.degrees(run0["mesh_phase_model_rad"]) if "mesh_phase_model_rad" in run0
                else float(run0.get("mesh_phase_deg") or 0.0))
-    psi_index = _index_phase_deg(summary, cfg.pair.z)
+    psi_index = _index_phase_deg(summary, cfg.pair.z, psi_deg)
     if psi_index is not None:
         psi_deg = psi_index
         doc["calibrate"] = {**raw.get("calibrate", {}), "index_mesh_phase_deg": psi_index}

@@ -16,7 +16,7 @@ from scipy.optimize import minimize_scalar
 
 from gearrom.calibrate.fit import Candidate, Context, Trial
 from gearrom.calibrate.fit_mesh import explains_gmf
-from gearrom.calibrate.model import realigned
+from gearrom.calibrate.model import realigned, shaft_rate_hz
 from gearrom.calibrate.registry import EffectPlugin, EffectSpec, register
 from gearrom.calibrate.simulator import ROM_TUNABLE, ModelChanges
 
@@ -59,8 +59,8 @@ def _linear_models(ctx: Context, param: str, scale: float) -> list:
     for m in ctx.models:
         H = {}
         for shaft, (orders, h) in m.H.items():
-            f_shaft = m.run.rpm_in / 60.0 * (1.0 if shaft == "input" else m.run.mesh.ratio)
-            ratio = ctx.sim.response_ratio(m.run.rpm_in, m.run.torque_out_Nm, ((param, scale),), orders * f_shaft)
+            ratio = ctx.sim.response_ratio(m.run.rpm_in, m.run.torque_out_Nm, ((param, scale),),
+                                           orders * shaft_rate_hz(m.run, shaft))
             H[shaft] = (orders, h * ratio)
         out.append(dataclasses.replace(m, H=H))
     return out

@@ -339,15 +339,10 @@ def _save_checkpoint(path: Path, state: dict, out: dict, row: int, chunk: int, t
                  wall=np.array(wall), **arrays)
 
 
-def _older_format(path: Path) -> bool:
-    """Whether the checkpoint at ``path`` is of a format older than :data:`CHECKPOINT_FORMAT`."""
-    with np.load(path) as z:
-        return str(z["format"]) != CHECKPOINT_FORMAT
-
-
 def _load_checkpoint(path: Path, state: dict, out: dict, key: str, legacy_key: str,
-                     bounds: np.ndarray) -> tuple[int, int, float, float]:
-    """Restore ``state`` and ``out`` in place from ``path``; return (row, next chunk, t0, wall so far).
+                     bounds: np.ndarray) -> tuple[int, int, float, float, bool]:
+    """Restore ``state`` and ``out`` in place from ``path``; return (row, next chunk, t0, wall so far, whether
+    the file is of an older format than :data:`CHECKPOINT_FORMAT`).
 
     A checkpoint continues a run of the same model, step, sample period, probes and thread mode whose
     completed chunk boundaries are the first ones of ``bounds`` (output rows). The end time may differ:
@@ -379,7 +374,7 @@ def _load_checkpoint(path: Path, state: dict, out: dict, key: str, legacy_key: s
                 state[k][...] = z[f"state_{k}"]
             for k in _OUT:
                 out[k][:row] = z[k]
-            return row, chunk, float(z["t0"]), float(z["wall"])
+            return row, chunk, float(z["t0"]), float(z["wall"]), fmt != CHECKPOINT_FORMAT
     except (OSError, KeyError, ValueError) as exc:
         raise ConfigError(f"checkpoint {path} cannot be read ({exc}); delete it to start over") from None
 
@@ -503,9 +498,9 @@ def solve(model: ExplicitModel, t_end: float, sample_period: float | None = None
         if resume and checkpoint.is_file():
             legacy = fingerprint(model, t_end=t_end, sample_period=sample_period, dt=step_dt, chunks=chunks,
                                  probes=probes, parallel=bool(parallel))
-            row, first, t0, wall_before = _load_checkpoint(checkpoint, st, out, key, legacy, bounds)
+            row, first, t0, wall_before, older = _load_checkpoint(checkpoint, st, out, key, legacy, bounds)
             log.info("explicit: resumed from %s at t = %.4e s (chunk %d of %d)", checkpoint, t0, first, chunks)
-            if first == chunks and _older_format(checkpoint):  # a finished older run: stored extendable
+            if first == chunks and older:  # a finished run of the older format: stored extendable
                 _save_checkpoint(checkpoint, st, out, row, first, t0, wall_before, key, bounds)
     # the loop's array groups (the state arrays are updated in place; the output rows change per chunk)
     src = {**d, **st, "X": model.nodes, "probes": probes}
