@@ -49,7 +49,7 @@ class FitSettings:
     kappa: float = 25.0
     ambiguity: float = 0.002
     shared_shaft_phase: bool = False  # True only for runs recorded from a common index (same angle zero)
-    rig_parameters: tuple[str, ...] = ("k_clutch", "J_motor", "J_load", "k_shaft_in", "mesh_stiffness")
+    rig_parameters: tuple[str, ...] = ("k_clutch", "J_motor", "J_load", "k_shaft_in", "mesh_stiffness", "k_support")
     candidates: tuple[str, ...] | None = None
 
 

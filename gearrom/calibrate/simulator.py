@@ -64,9 +64,14 @@ class Tunable:
     linear : bool
         The profile takes the re-tuned rig's response to a kinematic error from the simulated nominal
         response times the change of the linearized drivetrain's response (:meth:`RomSimulator.response_ratio`)
-        instead of re-simulating every scale: for a parameter that moves a low rig mode and leaves the
-        mesh alone (an inertia or a coupling of the drive or the load). The verification re-simulates
-        the chosen scale.
+        instead of re-simulating every scale: for a parameter whose change the linearized drivetrain
+        holds (an inertia, a coupling, a support stiffness). The accepted kinematic errors are refitted
+        on the re-tuned responses. The verification re-simulates the chosen scale.
+    mesh_lines : bool
+        The parameter also changes the response at the mesh orders (a support stiffness changes the
+        mesh compliance): judged alone (no kinematic error accepted) it is re-simulated, and its linear
+        profile keeps the nominal model's mesh lines, which the verification re-simulates. False for a
+        parameter that moves a low rig mode and leaves the mesh alone (an inertia of the drive or load).
     """
 
     keys: tuple[str, ...]
@@ -76,6 +81,7 @@ class Tunable:
     step: float = 1.25
     interacts: bool = False
     linear: bool = False
+    mesh_lines: bool = False
 
 
 #: Rig parameters the ROM adapter can scale. The bearing supports are an assumption of most rig configs
@@ -88,7 +94,7 @@ ROM_TUNABLE = {
     "k_support": Tunable(("rig.bearings.ball_radial_N_per_um", "rig.bearings.ball_axial_N_per_um",
                           "rig.bearings.needle_radial_N_per_um"),
                          "bearing support stiffness (ball radial and axial, needle radial, scaled together)",
-                         lo=0.1, hi=100.0, step=10 ** 0.5, interacts=True),
+                         lo=0.1, hi=100.0, step=10 ** 0.5, interacts=True, linear=True, mesh_lines=True),
     "mesh_stiffness": Tunable((), "mesh stiffness level (scales the excitation table)"),
 }
 
@@ -153,6 +159,10 @@ class RomSimulator:
         """Whether the profile of rig parameter ``name`` may use :meth:`response_ratio`."""
         return ROM_TUNABLE[name].linear
 
+    def moves_mesh_lines(self, name: str) -> bool:
+        """Whether rig parameter ``name`` changes the response at the mesh orders too (:class:`Tunable`)."""
+        return ROM_TUNABLE[name].mesh_lines
+
     def response_ratio(self, rpm_in: float, torque_out_Nm: float, rig_scale: tuple, freqs_hz) -> np.ndarray:
         """Complex ratio (3, n) of the re-tuned to the nominal rig's linear response to a kinematic error at
         the mesh, for ``te``, ``u_in`` and ``u_out`` (the encoder angles times the base radii) at ``freqs_hz``.
@@ -188,6 +198,13 @@ class RomSimulator:
                 lam, V = np.linalg.eig(A)
                 self._linear[key] = (np.vstack(rows) @ V, np.linalg.solve(V, B[:, 0]), lam)
         return self._linear[key]
+
+    def table_stiffness(self, torque_out_Nm: float, rig_scale=()) -> float:
+        """Mean mesh stiffness [N/m] of the table the ROM runs at ``torque_out_Nm`` (its secant at that
+        torque, ``mesh_stiffness`` scale applied): the level the ROM scales the slices of its pitch
+        deviations to, and so the level of the diagnosis' tooth model."""
+        model = self._model(None, torque_out_Nm, tuple(rig_scale))
+        return float(np.mean(model.excitation.sampled(float(torque_out_Nm), 256)[1]))
 
     def modes_hz(self, rig_scale=()) -> list[tuple[float, float]]:
         key = _scale_key(rig_scale)

@@ -30,9 +30,8 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                         "(eccentricity,pitch_error,tip_relief,lead_crowning,helix_slope,encoder_eccentricity,torsional_mode)")
     parser.add_argument("--rig-parameters", metavar="NAMES",
                         help="comma-separated rig parameters torsional_mode may re-tune (default: k_clutch,J_motor,"
-                             "J_load,k_shaft_in,mesh_stiffness, those the simulator offers; the exudyn ROM also offers "
-                             "k_support, the bearing support over 0.1-100 x, refitted with the kinematic errors it "
-                             "passes: slower)")
+                             "J_load,k_shaft_in,mesh_stiffness,k_support, those the simulator offers; k_support scales "
+                             "the bearing supports over 0.1-100 x)")
     parser.add_argument("--per-run-phase", action="store_true",
                         help="shaft-order phases per run (the default; kept for compatibility)")
     parser.add_argument("--shared-phase", action="store_true",

@@ -128,7 +128,8 @@ def centre_distance_sensitivity(pair: GearPair) -> float:
 _PITCH_CACHE: dict = {}
 
 
-def pitch_curve(pair: GearPair, gear: int, deviations, torque_Nm: float, stiffness_scale: float = 1.0) -> np.ndarray:
+def pitch_curve(pair: GearPair, gear: int, deviations, torque_Nm: float, stiffness_scale: float = 1.0,
+                mods=None) -> np.ndarray:
     """TE change [m] over one revolution of ``gear`` from the single pitch deviations of its teeth.
 
     The cumulative deviation of each tooth (mean removed, positive = ahead in its gear's rotation)
@@ -148,6 +149,8 @@ def pitch_curve(pair: GearPair, gear: int, deviations, torque_Nm: float, stiffne
         Output torque of the static state, N m.
     stiffness_scale : float
         Factor on the slice stiffness (the mesh table's mean stiffness over the slices').
+    mods : MicroMods, optional
+        Flank modifications of the pair (:class:`gearrom.excitation.slices.MicroMods`; default none).
     """
     from gearrom.excitation.slices import pitch_te
 
@@ -156,12 +159,12 @@ def pitch_curve(pair: GearPair, gear: int, deviations, torque_Nm: float, stiffne
     if fp.size != z:
         raise ModelError(f"pitch deviations of gear {gear} need {z} values, got {fp.size}")
     key = (pair.z, pair.rb, pair.face_width, pair.beta_b, gear, tuple(fp), round(float(torque_Nm), 9),
-           round(float(stiffness_scale), 9))
+           round(float(stiffness_scale), 9), mods)
     if key not in _PITCH_CACHE:
         cum = np.cumsum(fp - fp.mean())
         cum -= cum.mean()
         curve = pitch_te(pair, max(float(torque_Nm), 1e-9), gear, (-1.0 if gear == 0 else 1.0) * cum,
-                         stiffness_scale=stiffness_scale)
+                         mods, stiffness_scale=stiffness_scale)
         _PITCH_CACHE[key] = curve - curve.mean()
     return _PITCH_CACHE[key]
 
@@ -300,12 +303,15 @@ class MeshLaw:
         self.kappa = centre_distance_sensitivity(self.pair)
         self.pitch = []
         if self.effects.pitch:
-            from gearrom.excitation.slices import stiffness_scale
+            from gearrom.excitation.slices import MicroMods, stiffness_scale
 
+            # the slices carry the pair's flank modifications and the table's mean stiffness, as the
+            # diagnosis' tooth model does (gearrom.calibrate.effects.pitch_error)
             torque = self.f_nom * self.pair.rb[1]
-            scale = stiffness_scale(self.pair, torque, float(np.mean(self.k_grid)))
+            mods = MicroMods.from_pair(self.pair)
+            scale = stiffness_scale(self.pair, torque, float(np.mean(self.k_grid)), mods)
         for p in self.effects.pitch:
-            curve = pitch_curve(self.pair, p.gear, p.deviations, torque, scale)
+            curve = pitch_curve(self.pair, p.gear, p.deviations, torque, scale, mods)
             self.pitch.append((p.gear, curve.tolist() + [float(curve[0])], curve.size / (2 * math.pi)))
 
     def base(self, th1: float) -> tuple[float, float]:

@@ -43,15 +43,15 @@ def test_proud_tooth_and_runout_found_and_sized(combined):
 
     datasim's rig is not gearrom's: its first torsional mode (drive against load, in the record's truth)
     lies above the ROM's. The pulse train of the proud tooth passes that mode, so a re-tuned rig parameter
-    may join the two errors; if it does, it must move the ROM's mode towards datasim's."""
+    may join the two errors; if it does, it must move the ROM's first mode towards datasim's."""
     s, files = combined
     found = {(e["effect"], e["target"]): e for e in s["effects"]}
     rig = found.pop(("torsional_mode", None), None)
     assert set(found) == {("eccentricity", "output_gear"), ("pitch_error", "input_gear")}, s["effects"]
     if rig is not None:
         truth_hz = json.loads(files[0].read_text())["extra"]["truth"]["modes_hz"][0][0]
-        p = rig["parameters"]
-        assert abs(p["frequency_hz"] - truth_hz) < abs(p["nominal_frequency_hz"] - truth_hz), p
+        nominal_hz, retuned_hz, _ = min(rig["parameters"]["moved_modes"])
+        assert abs(retuned_hz - truth_hz) < abs(nominal_hz - truth_hz), rig["parameters"]
     ecc, pit = found[("eccentricity", "output_gear")], found[("pitch_error", "input_gear")]
     assert ecc["parameters"]["amplitude_um"] == pytest.approx(22.0, rel=0.25)
     assert abs((ecc["parameters"]["phase_deg"] - 120.0 + 180) % 360 - 180) < 10.0
@@ -71,20 +71,23 @@ def _size(e):
 
 
 def test_written_config_forecasts_a_third_speed(combined, tmp_path):
-    """``--write-config`` then the written config, as the nominal model, on the 1600 rpm record that the
-    diagnosis did not see: its error is at most 1.5 x the diagnosis' after-error (the two rigs differ beyond
-    one scaled parameter: datasim's drive mode is less damped than the re-tuned ROM's, and its mesh law
-    shapes the tooth pulse differently) and removes at least 80 % of the original config's error at that
-    speed. The helical pair's GMF lines leave the mesh phase free, so the written config states the
-    encoder index's position that puts the fitted tooth on a whole pitch of the model."""
+    """``--write-config`` then the written config, as the nominal model: on the diagnosed records it
+    reproduces the diagnosis (error within 10 % of the after-error: the ROM models the written pitch
+    deviations as the diagnosis' tooth model does), and on the 1600 rpm record the diagnosis did not see
+    its error is within the after-error (5 % for the numerics of two independent simulations) and at
+    most a fifth of the original config's error at that speed. The helical pair's GMF lines leave the
+    mesh phase free, so the written config states the encoder index's position that puts the fitted
+    tooth on a whole pitch of the model."""
     s, files = combined
     out = write_config(s, "thesis-rig", tmp_path / "diagnosed.toml")
     assert "index_mesh_phase_deg" in tomllib.loads(out.read_text())["calibrate"]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
+        seen = diagnose(str(out), files[:2], settings=FitSettings(max_effects=0)).summary
         new = diagnose(str(out), files[2:], settings=FitSettings(max_effects=0)).summary
         old = diagnose("thesis-rig", files[2:], settings=FitSettings(max_effects=0)).summary
-    assert new["error_before_rms_um"] <= 1.5 * s["error_after_rms_um"]
+    assert seen["error_before_rms_um"] <= 1.1 * s["error_after_rms_um"]
+    assert new["error_before_rms_um"] <= 1.05 * s["error_after_rms_um"]
     assert new["error_before_rms_um"] <= 0.2 * old["error_before_rms_um"]
     assert math.isfinite(new["error_before_rms_um"])
 

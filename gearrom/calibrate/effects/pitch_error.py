@@ -9,8 +9,8 @@ when small, saturating when the tooth leaves contact). ``tooth_index`` counts te
 
 The kinematic error pattern is the static TE change of :func:`gearrom.excitation.slices.tooth_te`
 (the tooth followed through its whole engagement, load shared with the other pairs, slice
-stiffness scaled to the mesh stiffness of the micro-geometry model's table, i.e. the FE table when
-the diagnosis runs on it). It passes through the run's drivetrain response ``H(q)`` at every
+stiffness scaled to the mean stiffness of the simulator's own mesh table, the ROM's FE table when the
+diagnosis runs on the ROM: the ROM models the pitch deviations of a written config the same way). It passes through the run's drivetrain response ``H(q)`` at every
 order of its shaft the sensitivity holds (6 GMF harmonics of the input, 2 z of the output), so
 the prediction is the time-domain pulse train at the shaft period, not a few order lines.
 
@@ -66,10 +66,16 @@ class PitchError(Candidate):
         return 0 if self.target == "input_gear" else 1
 
     def _scale(self, ctx: Context, torque: float) -> float:
-        key = round(torque, 6)
+        """Factor on the slice stiffness: to the simulator's own mesh table where it has one (the ROM
+        scales the slices of its pitch deviations to that table, so that a written config reproduces
+        the fitted pulse), else to the micro-geometry model's table."""
+        key = (id(ctx.sim), round(torque, 6))
         if key not in self._scales:
             try:
-                k_ref = float(np.mean(ctx.micro_model.excitation(ctx.pair, [torque], ctx.micro_nominal).k[0]))
+                if hasattr(ctx.sim, "table_stiffness"):
+                    k_ref = ctx.sim.table_stiffness(torque)
+                else:
+                    k_ref = float(np.mean(ctx.micro_model.excitation(ctx.pair, [torque], ctx.micro_nominal).k[0]))
                 self._scales[key] = stiffness_scale(ctx.pair, torque, k_ref, ctx.micro_nominal)
             except (GearromError, AttributeError):
                 self._scales[key] = 1.0
@@ -77,10 +83,11 @@ class PitchError(Candidate):
 
     def pattern(self, ctx: Context, torque: float, deviation_um: float) -> np.ndarray:
         """Static TE change (m) over one revolution of the gear, tooth 0 displaced by ``deviation_um``."""
-        key = (round(torque, 6), round(deviation_um, 4))
+        scale = self._scale(ctx, torque)
+        key = (round(torque, 6), round(deviation_um, 4), round(scale, 9))
         if key not in self._patterns:
             self._patterns[key] = tooth_te(ctx.pair, torque, self._gear(), deviation_um * UM, ctx.micro_nominal,
-                                           stiffness_scale=self._scale(ctx, torque))
+                                           stiffness_scale=scale)
         return self._patterns[key]
 
     def _basis(self, r: int, m) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -40,6 +40,9 @@ class _Retuned:
         ch = changes or ModelChanges()
         return self._sim.simulate(cond, dataclasses.replace(ch, rig_scale=tuple(ch.rig_scale) + self._rig))
 
+    def table_stiffness(self, torque_out_Nm: float, rig_scale=()) -> float:
+        return self._sim.table_stiffness(torque_out_Nm, tuple(rig_scale) + self._rig)
+
     def __getattr__(self, name):
         return getattr(self._sim, name)
 
@@ -48,7 +51,8 @@ class _Retuned:
 #: effect models' own error, as for look-alike flank modifications)
 RIG_AMBIGUITY = 0.1
 SCAN_STEPS = 6  # a search ladder of at most this many scales (besides 1) is evaluated at every step
-PROBE_SHARE = 0.02  # share of the residual energy a rig parameter must explain at x0.8 or x1.25 to be searched
+PROBE_SHARE = 0.02
+MOVED_SHARE = 0.05  # a mode whose frequency the scale changes by more than this share is reported as moved  # share of the residual energy a rig parameter must explain at x0.8 or x1.25 to be searched
 
 
 def _linear_models(ctx: Context, param: str, scale: float) -> list:
@@ -66,17 +70,33 @@ def _linear_models(ctx: Context, param: str, scale: float) -> list:
     return out
 
 
+def _refit_each(ctx: Context, trials: list, R0: np.ndarray) -> list:
+    """Each effect fitted again on ``ctx`` in its order, on what the ones before it leave of ``R0``; an
+    effect that cannot be refitted keeps its fit."""
+    refit = []
+    for t in trials:
+        R = R0 - sum((ctx.stack(u.contrib) for u in refit), np.zeros_like(R0))
+        try:
+            u = t.cand.fit(ctx, R)
+        except Exception as exc:  # noqa: BLE001
+            log.warning("%r could not be refitted on the re-tuned rig: %s", t.cand, exc)
+            u = None
+        refit.append(u if u is not None else t)
+    return refit
+
+
 class RigMode(Candidate):
     """One rig parameter scaled, by re-simulation (one per diagnosis; dropped once it explains nothing)."""
 
     exclusive = True
     expensive = True
 
-    def __init__(self, param: str, interacts: bool = False, linear: bool = False):
+    def __init__(self, param: str, interacts: bool = False, linear: bool = False, mesh_lines: bool = False):
         super().__init__("torsional_mode", "")
         self.param = param
         self.interacts = interacts
         self.linear = linear
+        self.mesh_lines = mesh_lines
 
     def __repr__(self):
         return f"torsional_mode[{self.param}]"
@@ -87,7 +107,7 @@ class RigMode(Candidate):
         the mesh phase re-estimated from the re-tuned model's own GMF lines."""
         if self.interacts and any(not isinstance(t.cand, RigMode) for t in ctx.accepted):
             return self._profile(ctx, scale)
-        if self.linear:  # a low rig mode alone leaves the nominal model's mesh lines as they are
+        if self.linear and not self.mesh_lines:  # a low rig mode alone leaves the mesh lines as they are
             return [np.zeros_like(m.nominal) for m in ctx.models], [m.psi for m in ctx.models], None
         out, psis = [], []
         for m in ctx.models:
@@ -120,22 +140,14 @@ class RigMode(Candidate):
         models = ctx._ste[key]
         cs = Context(models, sim, ctx.s, ctx.pair, ctx.micro_model, ctx.micro_nominal)
         R0 = cs.stack([m.run.y - m.nominal for m in models])
-        if self.linear:  # a low mode moves: the effects keep shapes and positions, their sizes are refitted
+        if self.linear:
+            # the kinematic errors (fitted in the order domain through each run's H) are refitted, position
+            # and size, on the re-tuned responses, then sized jointly; the others keep their fit
             lin = [t for t in acc if hasattr(t.cand, "linear_columns")]
             R = R0 - sum((cs.stack(t.contrib) for t in acc if t not in lin), np.zeros_like(R0))
-            new = dict(zip(map(id, lin), linear_refit(cs, lin, R))) if lin else {}
-            refit = [new.get(id(t), t) for t in acc]
-            return self._change(ctx, models, acc, refit)
-        refit = []
-        for t in acc:
-            R = R0 - sum((cs.stack(u.contrib) for u in refit), np.zeros_like(R0))
-            try:
-                u = t.cand.fit(cs, R)
-            except Exception as exc:  # noqa: BLE001  (an effect that cannot be refitted keeps its fit)
-                log.warning("%r could not be refitted on the re-tuned rig: %s", t.cand, exc)
-                u = None
-            refit.append(u if u is not None else t)
-        return self._change(ctx, models, acc, joint_refit(cs, refit, R0))
+            new = dict(zip(map(id, lin), linear_refit(cs, _refit_each(cs, lin, R), R))) if lin else {}
+            return self._change(ctx, models, acc, [new.get(id(t), t) for t in acc])
+        return self._change(ctx, models, acc, joint_refit(cs, _refit_each(cs, acc, R0), R0))
 
     @staticmethod
     def _change(ctx, models, acc, refit) -> tuple[list, list, list]:
@@ -228,8 +240,11 @@ class RigMode(Candidate):
         modes0 = getattr(self.sim_ref, "modes_hz", lambda *_: [])() if hasattr(self, "sim_ref") else []
         modes1 = self.sim_ref.modes_hz(((self.param, s),)) if modes0 else []
         if modes0 and modes1 and len(modes0) == len(modes1):
-            j = int(np.argmax([abs(b[0] / a[0] - 1) for a, b in zip(modes0, modes1)]))
+            change = [abs(b[0] / a[0] - 1) for a, b in zip(modes0, modes1)]
+            j = int(np.argmax(change))
             out.update(frequency_hz=modes1[j][0], damping_ratio=modes1[j][1], nominal_frequency_hz=modes0[j][0])
+            # every mode the scale moves by more than MOVED_SHARE: [nominal Hz, re-tuned Hz, re-tuned damping ratio]
+            out["moved_modes"] = [[a[0], b[0], b[1]] for a, b, c in zip(modes0, modes1, change) if c > MOVED_SHARE]
         return out
 
     def changes(self, x, info, ctx, run: int = 0):
@@ -247,7 +262,8 @@ class Plugin(EffectPlugin):
         for p in ctx.s.rig_parameters:
             if p in tun:
                 c = RigMode(p, interacts=bool(getattr(ctx.sim, "interacts", lambda _: False)(p)),
-                            linear=bool(getattr(ctx.sim, "linear_interaction", lambda _: False)(p)))
+                            linear=bool(getattr(ctx.sim, "linear_interaction", lambda _: False)(p)),
+                            mesh_lines=bool(getattr(ctx.sim, "moves_mesh_lines", lambda _: True)(p)))
                 c.sim_ref = ctx.sim
                 out.append(c)
         return out
