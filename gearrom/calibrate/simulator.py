@@ -64,14 +64,10 @@ class Tunable:
     linear : bool
         The profile takes the re-tuned rig's response to a kinematic error from the simulated nominal
         response times the change of the linearized drivetrain's response (:meth:`RomSimulator.response_ratio`)
-        instead of re-simulating every scale: for a parameter whose change the linearized drivetrain
-        holds (an inertia, a coupling, a support stiffness). The accepted kinematic errors are refitted
-        on the re-tuned responses. The verification re-simulates the chosen scale.
-    mesh_lines : bool
-        The parameter also changes the response at the mesh orders (a support stiffness changes the
-        mesh compliance): judged alone (no kinematic error accepted) it is re-simulated, and its linear
-        profile keeps the nominal model's mesh lines, which the verification re-simulates. False for a
-        parameter that moves a low rig mode and leaves the mesh alone (an inertia of the drive or load).
+        instead of re-simulating every scale, and the change of the nominal model's GMF lines from the
+        same ratio at their frequencies: for a parameter whose change the linearized drivetrain holds
+        (an inertia, a coupling, a support stiffness). The accepted kinematic errors are refitted on the
+        re-tuned responses. The verification re-simulates the chosen scale.
     """
 
     keys: tuple[str, ...]
@@ -81,7 +77,6 @@ class Tunable:
     step: float = 1.25
     interacts: bool = False
     linear: bool = False
-    mesh_lines: bool = False
 
 
 #: Rig parameters the ROM adapter can scale. The bearing supports are an assumption of most rig configs
@@ -94,7 +89,7 @@ ROM_TUNABLE = {
     "k_support": Tunable(("rig.bearings.ball_radial_N_per_um", "rig.bearings.ball_axial_N_per_um",
                           "rig.bearings.needle_radial_N_per_um"),
                          "bearing support stiffness (ball radial and axial, needle radial, scaled together)",
-                         lo=0.1, hi=100.0, step=10 ** 0.5, interacts=True, linear=True, mesh_lines=True),
+                         lo=0.1, hi=100.0, step=10 ** 0.5, interacts=True, linear=True),
     "mesh_stiffness": Tunable((), "mesh stiffness level (scales the excitation table)"),
 }
 
@@ -158,10 +153,6 @@ class RomSimulator:
     def linear_interaction(self, name: str) -> bool:
         """Whether the profile of rig parameter ``name`` may use :meth:`response_ratio`."""
         return ROM_TUNABLE[name].linear
-
-    def moves_mesh_lines(self, name: str) -> bool:
-        """Whether rig parameter ``name`` changes the response at the mesh orders too (:class:`Tunable`)."""
-        return ROM_TUNABLE[name].mesh_lines
 
     def response_ratio(self, rpm_in: float, torque_out_Nm: float, rig_scale: tuple, freqs_hz) -> np.ndarray:
         """Complex ratio (3, n) of the re-tuned to the nominal rig's linear response to a kinematic error at

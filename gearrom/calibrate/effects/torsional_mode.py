@@ -14,7 +14,7 @@ import math
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from gearrom.calibrate.fit import Candidate, Context, Trial
+from gearrom.calibrate.fit import Candidate, Context, Trial, detrend_like_data
 from gearrom.calibrate.fit_mesh import explains_gmf
 from gearrom.calibrate.model import realigned, shaft_rate_hz
 from gearrom.calibrate.registry import EffectPlugin, EffectSpec, register
@@ -57,16 +57,23 @@ MOVED_SHARE = 0.05  # a mode whose frequency the scale changes by more than this
 
 def _linear_models(ctx: Context, param: str, scale: float) -> list:
     """The runs' models on a rig with ``param`` scaled, from the linearized drivetrain: each shaft's
-    simulated response ``H(q)`` times the ratio of the re-tuned to the nominal linear response at that
-    order's frequency; the nominal signals are kept (a low rig mode leaves the mesh lines alone)."""
+    simulated response ``H(q)`` and the nominal model's GMF lines times the ratio of the re-tuned to the
+    nominal linear response at their frequencies (the mesh phase kept)."""
     out = []
     for m in ctx.models:
+        rig = ((param, scale),)
         H = {}
         for shaft, (orders, h) in m.H.items():
-            ratio = ctx.sim.response_ratio(m.run.rpm_in, m.run.torque_out_Nm, ((param, scale),),
-                                           orders * shaft_rate_hz(m.run, shaft))
+            ratio = ctx.sim.response_ratio(m.run.rpm_in, m.run.torque_out_Nm, rig, orders * shaft_rate_hz(m.run, shaft))
             H[shaft] = (orders, h * ratio)
-        out.append(dataclasses.replace(m, H=H))
+        nominal, g3 = m.nominal, m.gmf_model3
+        if g3 is not None and m.lines is not None and g3.size:
+            q = np.asarray(m.lines, float)[: g3.shape[1], 0]  # GMF harmonics as input orders
+            ratio = ctx.sim.response_ratio(m.run.rpm_in, m.run.torque_out_Nm, rig, q * shaft_rate_hz(m.run, "input"))
+            d = g3 * (ratio - 1.0) * np.exp(1j * q * m.psi)[None, :]
+            nominal = m.nominal + detrend_like_data((d @ np.exp(1j * np.outer(q, m.run.theta_in_rad))).real, axis=1)
+            g3 = g3 * ratio
+        out.append(dataclasses.replace(m, H=H, nominal=nominal, gmf_model3=g3))
     return out
 
 
@@ -91,12 +98,11 @@ class RigMode(Candidate):
     exclusive = True
     expensive = True
 
-    def __init__(self, param: str, interacts: bool = False, linear: bool = False, mesh_lines: bool = False):
+    def __init__(self, param: str, interacts: bool = False, linear: bool = False):
         super().__init__("torsional_mode", "")
         self.param = param
         self.interacts = interacts
         self.linear = linear
-        self.mesh_lines = mesh_lines
 
     def __repr__(self):
         return f"torsional_mode[{self.param}]"
@@ -107,8 +113,9 @@ class RigMode(Candidate):
         the mesh phase re-estimated from the re-tuned model's own GMF lines."""
         if self.interacts and any(not isinstance(t.cand, RigMode) for t in ctx.accepted):
             return self._profile(ctx, scale)
-        if self.linear and not self.mesh_lines:  # a low rig mode alone leaves the mesh lines as they are
-            return [np.zeros_like(m.nominal) for m in ctx.models], [m.psi for m in ctx.models], None
+        if self.linear:  # the change of the nominal model's GMF lines through the linearized drivetrain
+            models = self._retuned_models(ctx, scale)
+            return [ms.nominal - m.nominal for m, ms in zip(ctx.models, models)], [m.psi for m in ctx.models], None
         out, psis = [], []
         for m in ctx.models:
             mapped, psi = realigned(m, ctx.sim.simulate(m.cond, ModelChanges(rig_scale=((self.param, scale),))))
@@ -128,16 +135,11 @@ class RigMode(Candidate):
         accepted ones when the parameter is accepted).
         """
         from gearrom.calibrate.fit import Context
-        from gearrom.calibrate.model import build_run_model
         from gearrom.calibrate.select import joint_refit, linear_refit
 
         acc = [t for t in ctx.accepted if not isinstance(t.cand, RigMode)]
         sim = _Retuned(ctx.sim, ((self.param, scale),))
-        key = ("retuned_models", self.param, round(scale, 6))
-        if key not in ctx._ste:
-            ctx._ste[key] = (_linear_models(ctx, self.param, scale) if self.linear else
-                             [build_run_model(sim, m.run, psi_default=m.psi) for m in ctx.models])
-        models = ctx._ste[key]
+        models = self._retuned_models(ctx, scale)
         cs = Context(models, sim, ctx.s, ctx.pair, ctx.micro_model, ctx.micro_nominal)
         R0 = cs.stack([m.run.y - m.nominal for m in models])
         if self.linear:
@@ -148,6 +150,18 @@ class RigMode(Candidate):
             new = dict(zip(map(id, lin), linear_refit(cs, _refit_each(cs, lin, R), R))) if lin else {}
             return self._change(ctx, models, acc, [new.get(id(t), t) for t in acc])
         return self._change(ctx, models, acc, joint_refit(cs, _refit_each(cs, acc, R0), R0))
+
+    def _retuned_models(self, ctx: Context, scale: float) -> list:
+        """The runs' models on the re-tuned rig (cached per scale): from the linearized drivetrain for a
+        linear parameter, else rebuilt by simulation (nominal run, mesh phase, sensitivities)."""
+        from gearrom.calibrate.model import build_run_model
+
+        key = ("retuned_models", self.param, round(scale, 6))
+        if key not in ctx._ste:
+            sim = _Retuned(ctx.sim, ((self.param, scale),))
+            ctx._ste[key] = (_linear_models(ctx, self.param, scale) if self.linear else
+                             [build_run_model(sim, m.run, psi_default=m.psi) for m in ctx.models])
+        return ctx._ste[key]
 
     @staticmethod
     def _change(ctx, models, acc, refit) -> tuple[list, list, list]:
@@ -262,8 +276,7 @@ class Plugin(EffectPlugin):
         for p in ctx.s.rig_parameters:
             if p in tun:
                 c = RigMode(p, interacts=bool(getattr(ctx.sim, "interacts", lambda _: False)(p)),
-                            linear=bool(getattr(ctx.sim, "linear_interaction", lambda _: False)(p)),
-                            mesh_lines=bool(getattr(ctx.sim, "moves_mesh_lines", lambda _: True)(p)))
+                            linear=bool(getattr(ctx.sim, "linear_interaction", lambda _: False)(p)))
                 c.sim_ref = ctx.sim
                 out.append(c)
         return out
