@@ -51,8 +51,8 @@ class _Retuned:
 #: effect models' own error, as for look-alike flank modifications)
 RIG_AMBIGUITY = 0.1
 SCAN_STEPS = 6  # a search ladder of at most this many scales (besides 1) is evaluated at every step
-PROBE_SHARE = 0.02
-MOVED_SHARE = 0.05  # a mode whose frequency the scale changes by more than this share is reported as moved  # share of the residual energy a rig parameter must explain at x0.8 or x1.25 to be searched
+PROBE_SHARE = 0.02  # share of the residual energy a rig parameter must explain at x0.8 or x1.25 to be searched
+MOVED_SHARE = 0.05  # a mode whose frequency the scale changes by more than this share is reported as moved
 
 
 def _linear_models(ctx: Context, param: str, scale: float) -> list:
