@@ -2,7 +2,10 @@
 
 Figures: cold run (meshing + FE + influence coefficients + 64 contact positions at 120 N m, no
 cache) against the 60 s budget; re-evaluation with a new torque and with a new micro-geometry
-(same compliances, no FE) against 2 s; ISO 6336 ratios; peak memory.
+(same compliances, no FE) against 2 s; ISO 6336 ratios; peak memory. The 64 contact positions again
+with the contact solves' BLAS at one thread (``SpurLTCA.solve_many``, the package's setting) and at
+BLAS's own thread count, in the same run: the ratio that one thread gains on small dense solves, which
+is largest when the other core is busy (the load average is recorded).
 
 Run: python benchmarks/bench_stiffness_spur.py
 """
@@ -19,6 +22,35 @@ from gearrom.config import load_config
 from gearrom.fe.iso6336 import mesh_stiffness, single_stiffness
 from gearrom.fe.ltca import SpurLTCA
 from gearrom.fe.sweep import build_ltca, mesh_cycle
+
+
+def blas_thread_ratio(pair, repeats: int = 3) -> dict:
+    """Contact solves of 64 positions at 120 N m on the validation's flank grid (larger contact systems),
+    with BLAS at one thread and at all threads, alternated ``repeats`` times after a warm-up (best of each)."""
+    from threadpoolctl import threadpool_limits
+
+    from gearrom.fe.mesh2d import MeshSettings
+    from gearrom.validation.pair_rom import REFERENCE_FLANK_SIZE
+
+    fine = build_ltca(pair, MeshSettings(flank_size=REFERENCE_FLANK_SIZE))
+    theta = [i * fine.period / 64 for i in range(64)]
+    for th in theta:                       # warm-up: compliance matrices cached
+        fine.solve_many(th, [120.0])
+    one, full = [], []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        for th in theta:
+            fine.solve_many(th, [120.0])
+        t1 = time.perf_counter()
+        with threadpool_limits(limits=os.cpu_count(), user_api="blas"):
+            for th in theta:
+                fine._solve_many(th, [120.0], 0, None)   # the same solves without the one-thread limit
+        one.append(t1 - t0)
+        full.append(time.perf_counter() - t1)
+    return {"contact_64_positions_fine_grid_blas_1_thread_s": min(one),
+            "contact_64_positions_fine_grid_blas_all_threads_s": min(full),
+            "blas_all_threads_over_1_thread": min(full) / min(one),
+            "fine_grid_flank_mm": REFERENCE_FLANK_SIZE * 1e3}
 
 
 def main() -> None:
@@ -44,6 +76,7 @@ def main() -> None:
     single = ltca.solve(th - p * ltca.period, 120.0, only=[p])
     s = res.summary(0)
     b = pair.face_width
+    blas = blas_thread_ratio(pair)
     figures = {
         "cold_total_s": t2 - t0,
         "cold_fe_s": t1 - t0,
@@ -56,6 +89,7 @@ def main() -> None:
         "reeval_new_torques_s": t3 - t2,
         "reeval_new_microgeometry_s": t4 - t3,
         "budget_reeval_s": 2.0,
+        **blas,
         "peak_memory_MB": peak_memory_MB(),
         "fe_info": [c.info for c in ltca.c],
         "mean_stiffness_N_per_um_120Nm": s["mean_stiffness_N_per_um"],

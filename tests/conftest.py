@@ -8,6 +8,14 @@ import pytest
 from gearrom.config import load_config
 
 
+def pytest_configure(config):
+    """One BLAS thread per test process: the suite runs one xdist worker per core, and a second BLAS
+    thread per worker only waits for a core the other worker holds."""
+    from threadpoolctl import threadpool_limits
+
+    threadpool_limits(limits=1, user_api="blas")
+
+
 @pytest.fixture(scope="session")
 def spur():
     return load_config("thesis-spur")

@@ -8,7 +8,7 @@ per static solve on one idle core.
 The explicit model is the reference runs' kind (fully integrated Q4, outline nodes on the profile,
 penalty contact; sizes, sag, penalty and a tooth-periodic mesh by option), placed at the input angle ``j P / n`` from the FE start position and relaxed
 under the output torque (:func:`gearrom.validation.explicit_static.static_te`). The LTCA side is the
-quasi-static table at the same torque, read at the table phase of the FE start plus the angle. The
+quasi-static table at the same torque on the converged flank grid (:func:`gearrom.validation.pair_rom.reference_settings`), read at the table phase of the FE start plus the angle. The
 limits and the verdict are :func:`gearrom.validation.static_gate.static_gate`'s.
 """
 from __future__ import annotations
@@ -26,7 +26,7 @@ import numpy as np
 from gearrom.config import load_config
 from gearrom.fe.explicit.gearmesh import gear_quad_mesh
 from gearrom.validation.explicit_static import static_te
-from gearrom.validation.pair_rom import fe_start_mesh_phase, mesh_excitation
+from gearrom.validation.pair_rom import fe_start_mesh_phase, mesh_excitation, reference_settings
 from gearrom.validation.static_gate import static_gate
 
 HERE = Path(__file__).resolve().parent
@@ -71,7 +71,7 @@ def main(n: int = 16, torques=(60.0, 120.0), outline: float = 0.15e-3, body: flo
     fe, lt = {}, {}
     for t in torques:
         fe[t] = np.array([pts[f"{t:g}Nm/{j}"]["te_um"] * 1e-6 for j in range(n)])
-        ex, label = mesh_excitation(pair, t, "fe")
+        ex, label = mesh_excitation(pair, t, "fe", settings=reference_settings(pair))
         lt[t] = np.asarray(ex.ste(np.mod(phase0 + th, period), t), float)
         data.setdefault("ltca_um", {})[f"{t:g}"] = (lt[t] * 1e6).tolist()
         data["ltca_table"] = label

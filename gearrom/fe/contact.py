@@ -18,6 +18,19 @@ import numpy as np
 from gearrom.errors import SolverError
 
 
+def single_thread_blas():
+    """A context limiting BLAS to one thread for the small dense contact problems: their solves take
+    microseconds, and a second BLAS thread only adds synchronisation that stalls for milliseconds when
+    the other core is busy. A no-op without the optional ``threadpoolctl``."""
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:
+        import contextlib
+
+        return contextlib.nullcontext()
+    return threadpool_limits(limits=1, user_api="blas")
+
+
 @dataclass(frozen=True)
 class ContactSolution:
     """Forces ``f`` [N], approach ``delta`` [m], gaps after loading ``gap`` [m], iterations."""

@@ -35,7 +35,7 @@ import numpy as np
 
 from gearrom.errors import SolverError
 from gearrom.fe.compliance import FlankCompliance
-from gearrom.fe.contact import solve_contact
+from gearrom.fe.contact import single_thread_blas, solve_contact
 from gearrom.fe.flankgaps import needs_3d, pitch_removal, profile_removal, runout_removal, tip_limit
 from gearrom.fe.tipedge import FlankArc, InvoluteFrame
 
@@ -388,6 +388,10 @@ class SpurLTCA:
 
         ``only``: restrict the contact to these pair indices (e.g. ``[0]`` for a single pair's stiffness).
         """
+        with single_thread_blas():
+            return self._solve_many(theta, torques, mesh_index, only)
+
+    def _solve_many(self, theta: float, torques, mesh_index: int, only) -> list[PositionResult]:
         W = self.window
         for _ in range(4):
             cands = self.candidates(theta, mesh_index, W, only)

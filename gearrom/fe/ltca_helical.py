@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from gearrom.errors import SolverError
-from gearrom.fe.contact import solve_contact
+from gearrom.fe.contact import single_thread_blas, solve_contact
 from gearrom.fe.halfspace import rect_surface
 from gearrom.fe.ltca import PositionResult
 from gearrom.fe.flankgaps import pitch_removal, profile_removal, runout_removal, tip_limit
@@ -46,18 +46,6 @@ def _drop(t: np.ndarray, L_p: np.ndarray, rb: float, sign: float) -> np.ndarray:
     s = t[:, None] * _GX[None, :]
     kappa = 1.0 / np.sqrt(np.maximum(L_p[:, None] ** 2 + 2 * rb * sign * s, 1e-30))
     return t**2 * (((1 - _GX) * kappa) @ _GW)
-
-
-def _single_thread_blas():
-    """Limit BLAS to one thread for the small dense contact problems (threads only add overhead and
-    stall on a loaded machine); a no-op without the optional ``threadpoolctl``."""
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:
-        import contextlib
-
-        return contextlib.nullcontext()
-    return threadpool_limits(limits=1, user_api="blas")
 
 
 def _solve_from(C: np.ndarray, h: np.ndarray, force: float, active: np.ndarray, tol: float, max_iter: int = 30):
@@ -267,7 +255,7 @@ class Helical3DLTCA:
 
     def solve_many(self, theta: float, torques, mesh_index: int = 0, only=None) -> list[HelicalPositionResult]:
         """Solutions at one position for several output torques [N m] (one compliance matrix)."""
-        with _single_thread_blas():
+        with single_thread_blas():
             return self._solve_many(theta, torques, mesh_index, only)
 
     def _solve_many(self, theta: float, torques, mesh_index: int, only) -> list[HelicalPositionResult]:

@@ -42,8 +42,10 @@ __all__ = [
     "PairRomResult",
     "PairRomSetup",
     "fe_start_mesh_phase",
+    "REFERENCE_FLANK_SIZE",
     "mesh_excitation",
     "polar_inertia",
+    "reference_settings",
     "scaled_excitation",
     "simulate_pair_rom",
     "table_samples",
@@ -85,8 +87,31 @@ def fe_start_mesh_phase(pair) -> float:
     return float(np.mod((roll - pair.roll_start_active[0]) / rb1, 2 * math.pi / pair.z[0]))
 
 
+#: Flank element size [m] of the spur LTCA tables that are judged against the explicit references (the
+#: static gate and the ROM of the loaded-start comparison): the grid on which the static TE's GMF
+#: harmonics have converged (``validation/run_ltca_flank_convergence.py``: halving it again moves GMF1 by
+#: less than the gate's resolution). The default ``MeshSettings.flank_size`` is four times coarser; it
+#: resolves the mean TE and the stiffness but not the tip-edge rounding at the start and end of contact,
+#: which sets the harmonics.
+REFERENCE_FLANK_SIZE = 0.00625e-3
+
+
+def reference_settings(pair, settings=None):
+    """The 2D LTCA mesh settings of the validation tables: ``settings`` (default ``MeshSettings()``) with
+    the flank grid refined to :data:`REFERENCE_FLANK_SIZE` (``None`` for helical pairs, whose table is
+    the 3D model's own mesh)."""
+    if pair.is_helical:
+        return None
+    from dataclasses import replace
+
+    from gearrom.fe.mesh2d import MeshSettings
+
+    s = MeshSettings() if settings is None else settings
+    return s if s.flank_size <= REFERENCE_FLANK_SIZE else replace(s, flank_size=REFERENCE_FLANK_SIZE)
+
+
 def mesh_excitation(pair, torque: float, source: str = "fe", n_positions: int = 64, config_name: str = "",
-                    torque_map: bool = False):
+                    torque_map: bool = False, settings=None):
     """The MeshExcitation for the ROM and a label of where it came from.
 
     ``source``: ``"fe"`` (quasi-static FE LTCA sweep, cached on disk), ``"analytical"`` (ISO-shaped
@@ -94,22 +119,26 @@ def mesh_excitation(pair, torque: float, source: str = "fe", n_positions: int = 
     ``torque_map``: the FE table over the sweep's torque map about ``torque``
     (:func:`gearrom.excitation.fe.fe_excitation`, the table ``gearrom sweep`` runs), so that the ROM's
     mesh law is the load-dependent force-deflection map; otherwise the table at ``torque`` only (secant law).
+    ``settings``: 2D LTCA mesh settings (:class:`gearrom.fe.mesh2d.MeshSettings`; default the sweep's),
+    e.g. :func:`reference_settings`.
     """
     if source not in ("fe", "analytical", "auto"):
         raise ModelError(f"excitation source must be 'fe', 'analytical' or 'auto', got {source!r}")
     if source in ("fe", "auto"):
+        grid = "" if settings is None else f", flank {settings.flank_size * 1e3:g} mm"
         try:
             if torque_map:
                 from gearrom.excitation.fe import fe_excitation
                 from gearrom.excitation.fe import torque_map as torques_about
 
                 torques = torques_about(float(torque))
-                ex = fe_excitation(pair, torques, n_positions)
-                return ex, f"fe_ltca ({n_positions} positions, torque map {', '.join(f'{t:g}' for t in torques)} N m)"
+                ex = fe_excitation(pair, torques, n_positions, settings)
+                return ex, (f"fe_ltca ({n_positions} positions, torque map {', '.join(f'{t:g}' for t in torques)} "
+                            f"N m{grid})")
             from gearrom.fe.sweep import stiffness_sweep
 
-            ex = stiffness_sweep(pair, [float(torque)], n_positions).to_excitation()
-            return ex, f"fe_ltca ({n_positions} positions, {float(torque):g} N m)"
+            ex = stiffness_sweep(pair, [float(torque)], n_positions, settings).to_excitation()
+            return ex, f"fe_ltca ({n_positions} positions, {float(torque):g} N m{grid})"
         except Exception as exc:
             if source == "fe":
                 raise

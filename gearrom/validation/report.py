@@ -26,8 +26,8 @@ from gearrom.errors import ConfigError
 from gearrom.spectral import spectrum
 from gearrom.validation.compare import PERIODIC_ORDERS, TOLERANCES, compare_metrics, steady_window, te_metrics
 from gearrom.validation.gates import record_gates
-from gearrom.validation.pair_rom import (PairRomSetup, mesh_excitation, polar_inertia, scaled_excitation,
-                                         simulate_pair_rom, table_samples)
+from gearrom.validation.pair_rom import (PairRomSetup, mesh_excitation, polar_inertia, reference_settings,
+                                         scaled_excitation, simulate_pair_rom, table_samples)
 from gearrom.validation.records import (DEFAULT_FE_DIR, FE_INTEGRATIONS, FERecord, load_fe_record, record_stem,
                                         replace_meta)
 
@@ -278,7 +278,9 @@ def validate(config: str, rpms, fe_dir: str | Path | None = None, fresh: bool = 
         outline nodes lie on the generated profile (``outline_on_profile``) get none: their chords are
         within the profile's sag, which the tolerances do not resolve.
     table : str
-        ``"ltca"`` (default): the quasi-static LTCA table (P2, 25 um flanks). ``"explicit_scaled"``: the
+        ``"ltca"`` (default): the quasi-static LTCA table (P2, the config's ``[fe]`` mesh; for the
+        loaded-start references its flank grid refined to
+        :data:`gearrom.validation.pair_rom.REFERENCE_FLANK_SIZE`, the grid of the static gate). ``"explicit_scaled"``: the
         LTCA table with its stiffness scaled to the static compliance of the explicit FE's own slow run
         ``spur_60rpm`` (Q4, 0.15 mm outline, penalty contact; scale 0.932, from static data only),
         :func:`gearrom.validation.explicit_table.explicit_scaled_excitation`; spur pairs, stored records,
@@ -326,6 +328,9 @@ def validate(config: str, rpms, fe_dir: str | Path | None = None, fresh: bool = 
             raise ConfigError(f"--rpm values must be > 0, got {rpm}")
         records[rpm] = (fresh_fe_record(pair, rpm, cfg.operating.torque_out) if fresh
                         else load_fe_record(fe_dir, rpm, prefix, fe_integration or _preferred_integration(fe_dir, rpm, prefix)))
+    from gearrom.fe.mesh2d import settings_from_section
+
+    fe_settings, _ = settings_from_section(cfg.section("fe"), str(cfg.source or cfg.name))
     speeds = []
     cache: dict = {}
     for rpm, fe in records.items():
@@ -333,8 +338,8 @@ def validate(config: str, rpms, fe_dir: str | Path | None = None, fresh: bool = 
         loaded = fe.meta.get("start") == "loaded"       # the references: the sweep's load-dependent table
         tkey = (torque, loaded)
         if tkey not in cache:
-            cache[tkey] = mesh_excitation(pair, torque, excitation_source, config_name=cfg.name,
-                                          torque_map=loaded) + (None,)
+            cache[tkey] = mesh_excitation(pair, torque, excitation_source, config_name=cfg.name, torque_map=loaded,
+                                          settings=reference_settings(pair, fe_settings) if loaded else None) + (None,)
             if table == "explicit_scaled":
                 cache[tkey] = _explicit_scaled(pair, cache[tkey][0], fe_dir, torque)
         ex, ex_label, provenance = cache[tkey]
