@@ -34,7 +34,22 @@ from gearrom.signal import GearMeshInfo, ReadSettings, TESettings
 log = logging.getLogger(__name__)
 UM = 1e-6
 UNEXPLAINED_SHARE = 0.05  # an unexplained line must exceed 5 % of the largest residual line before the fit
+UNEXPLAINED_BAND = 0.1    # ... among those within 10 % of its frequency (leakage and modulation products of a
+                          # large misfit line lie near it; a line far from it is not masked by it)
 UNEXPLAINED_NOISE = 3.0  # ... and 3 x the broadband noise rms (lines at noise level are not reported)
+
+
+def _unexplained_peaks(after: np.ndarray, before_peaks: list[tuple[float, float]], fs_hz: float,
+                       noise_m: float) -> list[tuple[float, float]]:
+    """Lines of the after-residual ``after`` above :data:`UNEXPLAINED_NOISE` x the noise and above
+    :data:`UNEXPLAINED_SHARE` of the largest before-fit residual line within :data:`UNEXPLAINED_BAND`
+    of their frequency (``before_peaks``: (Hz, m))."""
+    out = []
+    for f, a in chz.spectral_peaks(after, fs_hz, noise_m, floor_m=UNEXPLAINED_NOISE * noise_m):
+        near = [b for g, b in before_peaks if abs(g - f) <= UNEXPLAINED_BAND * g]
+        if a >= UNEXPLAINED_SHARE * max(near, default=0.0):
+            out.append((f, a))
+    return out
 
 
 def diagnose(config: str | Path, measurements: Sequence[str | Path], *, simulator=None,
@@ -171,17 +186,14 @@ def _assemble(ctx: Context, config, sim, D, accepted, steps, after) -> Diagnosis
                                 "chosen_share": t.info.get("explained_share"), "alternative_share": rv["explained_share"],
                                 "suggested_run": rv["suggested_run"]})
     # unexplained: lines left in the after-residual, grouped across runs
-    floors = [UNEXPLAINED_SHARE * max([a for _, a in chz.spectral_peaks(rb, m.run.fs_hz, m.noise_m)] or [0.0])
-              for rb, m in zip(res_b, models)]
-    floors = [max(fl, UNEXPLAINED_NOISE * m.noise_m) for fl, m in zip(floors, models)]
-    peaks = [chz.spectral_peaks(ra, m.run.fs_hz, m.noise_m, floor_m=fl) for ra, m, fl in zip(res_a, models, floors)]
+    peaks_b = [chz.spectral_peaks(rb, m.run.fs_hz, m.noise_m) for rb, m in zip(res_b, models)]
+    peaks = [_unexplained_peaks(ra, pb, m.run.fs_hz, m.noise_m) for ra, pb, m in zip(res_a, peaks_b, models)]
     unexplained = chz.classify_peaks([m.run for m in models], peaks)
     for u in unexplained:  # a leftover at the lines of a fitted effect is a misfit of it, not a new effect
         labs = (u.get("integer_order") or "").split(" = ")  # an integer ratio names a line for both shafts
         for t in accepted:
             if any(PLUGINS[t.cand.name].explains_line(t.cand.target, lab) for lab in labs):
                 u["at_lines_of"] = t.cand.name
-    peaks_b = [chz.spectral_peaks(rb, m.run.fs_hz, m.noise_m) for rb, m in zip(res_b, models)]
     noise_line = [m.noise_m * math.sqrt(2 / m.run.t_s.size) for m in models]
     characterization = {
         "peaks_before": chz.classify_peaks([m.run for m in models], peaks_b),
