@@ -19,9 +19,9 @@ from gearrom.errors import SolverError
 
 
 def single_thread_blas():
-    """A context limiting BLAS to one thread for the small dense contact problems: their solves take
-    microseconds, and a second BLAS thread only adds synchronisation that stalls for milliseconds when
-    the other core is busy. A no-op without the optional ``threadpoolctl``."""
+    """A context limiting BLAS to one thread for the small dense contact problems: their solves are
+    short, and a second BLAS thread only adds synchronisation, which stalls the solve while another
+    process holds the other core. A no-op without the optional ``threadpoolctl``."""
     try:
         from threadpoolctl import threadpool_limits
     except ImportError:
