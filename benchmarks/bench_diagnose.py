@@ -1,5 +1,5 @@
 """Benchmark of ``gearrom diagnose``: wall time for 2 runs of 2 output revolutions (target <= 60 s on
-2 cores), plus the acceptance matrix of issue 6 on data made by the exudyn ROM (heavier than the suite:
+2 cores), plus the closed loop's acceptance matrix on data made by the exudyn ROM (heavier than the suite:
 more speeds, the slow cases).
 
 Data: :func:`gearrom.testing.synthetic.make_rom_run` (the ROM of ``thesis-rig`` with its own effect

@@ -1,6 +1,6 @@
 """Explicit FE of the seed's spur pair: a short coarse run at 2000 rpm, 120 Nm (2D plane strain Q4).
 
-Not the issue's validation run (>= 10 mesh periods on the quasi-static FE meshes): one mesh period
+Not a validation reference run (>= 10 mesh periods on the quasi-static FE meshes): one mesh period
 after a 0.3 ms torque ramp, on an all-quad gmsh mesh with 0.15 mm outline elements (the rigid TE
 of that faceted geometry stays within ~2 um; 0.3 mm gives ~10 um and tip interference). Both
 gears start at speed. Writes the figures (TE statistics, energies, hourglass ratio, wall time,

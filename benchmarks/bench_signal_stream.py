@@ -1,4 +1,4 @@
-"""Streaming benchmark of the measurement reader + TE pipeline (issue 7, acceptance "Streaming").
+"""Streaming benchmark of the measurement reader + TE pipeline (constant memory over a long record).
 
 A 10 s record of two 40000-edges/rev encoders at 5000 rpm input (33.3 million input edges, 26.0
 million output edges; the output turns at 5000*32/41 rpm) is emulated from a known TE, written as

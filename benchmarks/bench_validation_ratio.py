@@ -1,4 +1,4 @@
-"""Wall time per simulated second: explicit FE of the spur pair vs the pair ROM (issue 5, target >= 1e4).
+"""Wall time per simulated second: explicit FE of the spur pair vs the pair ROM (target >= 1e4).
 
 Both measured in this process on this machine: the explicit FE on the validation mesh (0.15 mm
 outline, 1.5 mm body, 2000 rpm, 120 Nm) over a short window after a JIT warm-up (its cost per

@@ -2,7 +2,7 @@
 
 Usage: ``python validation/run_explicit_helical.py RPM [PERIODS] [--integration full|reduced] [--parallel]``
 (writes validation/helical_<rpm>rpm.npz/.json, ``_full`` appended for fully integrated elements; PERIODS
-recorded mesh periods after settling, default 5 as issue 5 asks for the helical pair).
+recorded mesh periods after settling, default 5).
 
 Set-up as the spur reference (validation/run_explicit_spur.py): both gears start at speed, the output torque
 ramps in over 0.3 ms, one mesh period settles, then PERIODS mesh periods are recorded; frictionless flanks,
@@ -16,9 +16,8 @@ one-point Hex8 with hourglass stiffness 0.1 is too soft under the nodal contact 
 one-point Q4 was in 2D).
 This is a long job (about half an hour per speed on one core): run it in the background.
 
-History: until the open-edge rule of the 3D contact (gearrom.fe.explicit.contact.contact_forces_3d) the
-contact of this model created energy in bursts (a 2000 rpm run ended with a 262 J balance error); the
-cause was slave nodes passing the cut ends of the master flanks (see the gearrom.fe.explicit.helicalpair module notes).
+The 3D contact's open-edge rule (gearrom.fe.explicit.contact.contact_forces_3d) keeps slave nodes that pass
+the cut ends of the master flanks from creating energy (see the gearrom.fe.explicit.helicalpair module notes).
 """
 from __future__ import annotations
 

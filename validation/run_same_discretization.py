@@ -1,4 +1,4 @@
-"""Static vs dynamic parts of the pair ROM's miss against the explicit FE (issue 5, same discretised gears).
+"""Static vs dynamic parts of the pair ROM's miss against the explicit FE (same discretised gears).
 
 Usage: ``python validation/run_same_discretization.py`` (about 5 minutes: ROM runs and rigid facet
 geometry only, no explicit FE run) writes validation/rom_vs_fe_spur_same_discretization.json from

@@ -4,7 +4,7 @@ Each data set is simulated by the torsional rig model with effects injected from
 definitions (:mod:`gearrom.testing.synthetic`), emulated as encoder edges (40000 edges/rev,
 80 MHz counter, 2 ns jitter, 0.2 urad line errors) and written as ``gearrom.measurement/1`` files.
 Data sets and diagnoses are cached per session, so several tests can look at one diagnosis. The
-acceptance data of issue 6 are made by the exudyn ROM with its own effect models (``rom_*`` fixtures).
+acceptance data of the closed loop are made by the exudyn ROM with its own effect models (``rom_*`` fixtures).
 """
 from __future__ import annotations
 

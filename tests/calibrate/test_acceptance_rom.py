@@ -1,4 +1,4 @@
-"""Acceptance of issue 6 on data made by the exudyn ROM (issue 4) with effects the diagnosis is not told about.
+"""Acceptance of the closed loop on data made by the exudyn ROM with effects the diagnosis is not told about.
 
 Data: :func:`gearrom.testing.synthetic.make_rom_run`: the ROM of ``thesis-rig`` with the ROM's *own*
 effect models (``gearrom.rom.Runout`` with centre-distance modulation, ``PitchDeviations`` through the
@@ -11,7 +11,7 @@ ROM only.
 Reference values: the injected sizes and, for phases, the ROM's absolute angles converted to the
 diagnosis' convention (angle zero at each channel's first edge, known from the emulation):
 ``gearrom.testing.synthetic.rom_runout_phase_deg`` / ``encoder_phase_deg``. Tolerances are the
-issue's: right effect and target named first, amplitude within 25 %, phase within 20 deg, error
+acceptance criteria: right effect and target named first, amplitude within 25 %, phase within 20 deg, error
 after <= half the error before.
 """
 from __future__ import annotations

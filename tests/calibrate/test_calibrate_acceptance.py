@@ -1,12 +1,12 @@
 """Diagnosis of data made by the package's own torsional rig model (a second, independent data path).
 
-The acceptance of issue 6 runs on ROM-made data (test_acceptance_rom.py). Here the same diagnosis sees
+The closed loop's acceptance runs on ROM-made data (test_acceptance_rom.py). Here the same diagnosis sees
 data from the torsional rig model (:mod:`gearrom.calibrate.torsional`); the cases that duplicate the ROM
 acceptance are marked slow (run by hand / in the benchmark), the cheap ones stay in the suite.
 
 Reference: the injected effects themselves (sizes at drawing tolerance, written from their physical
 definitions in :mod:`gearrom.testing.synthetic`, independently of the diagnosis' effect models),
-passed through the encoder emulation and the measurement reader. The tolerances are the issue's:
+passed through the encoder emulation and the measurement reader. The tolerances are the acceptance's:
 right effect and target named first, amplitude within 25 %, phase within 20 deg, error after <= half
 the error before; the negative control adds nothing; an out-of-library ripple is reported as
 unexplained with the right order class.

@@ -1,4 +1,4 @@
-"""``gearrom diagnose`` CLI: the report JSON schema of issue 6, report files, save/load, clear errors."""
+"""``gearrom diagnose`` CLI: the report JSON schema, report files, save/load, clear errors."""
 from __future__ import annotations
 
 import json

@@ -1,11 +1,11 @@
-"""Diagnosis of data made by the exudyn ROM (issue 4) with its *own* runout model (eccentricity plus
+"""Diagnosis of data made by the exudyn ROM with its *own* runout model (eccentricity plus
 centre-distance modulation of the mesh), through the encoder emulation.
 
 Reference: the ROM's injected runout, ``e sin(theta_2 + phase)`` in absolute drive-sense angle. In this
 package's convention (TE-equivalent ``a cos(theta + phi)``, angle zero at the record's first edge)
 that is ``a = e`` and ``phi = phase - 90 deg + theta_2(record start)``. Two diagnoses: with the ROM
 itself (through :class:`RomSimulator`) and with the torsional rig model, i.e. a different simulator
-and rig than the one that made the data (the issue's generality requirement).
+and rig than the one that made the data (the diagnosis must not depend on the model that made the data).
 """
 from __future__ import annotations
 

@@ -27,7 +27,7 @@ RPMS = (1250.0, 2000.0, 1600.0)  # the third is recorded but kept out of the dia
 @pytest.fixture(scope="module")
 def combined(tmp_path_factory):
     """Output-gear runout 22 um (2 x its drawing tolerance) at 120 deg and input tooth 5 standing 32 um proud
-    (2 x the pitch tolerance): the issue's case of a proud pinion tooth, with a runout on the other shaft."""
+    (2 x the pitch tolerance): the case of a proud pinion tooth, with a runout on the other shaft."""
     case = datasim.Case("ecc_out+proud_in", (datasim.Eccentricity("output_gear", 22.0, 120.0),
                                              datasim.PitchError("input_gear", 5, -32.0)))
     files = datasim.make_case_files(tmp_path_factory.mktemp("datasim"), case, rpms=RPMS)

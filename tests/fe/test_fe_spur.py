@@ -117,7 +117,7 @@ def _richardson(f1: float, f2: float, f3: float, r: float) -> tuple[float, float
 def test_refinement_converges_on_coarse_ladder(pair, cache, cycle):
     """Mean stiffness and STE peak-to-peak (120 N m, unmodified teeth with rounded tip edges) converge
     monotonically on a coarse ladder of three meshes (all sizes x sqrt 2 per step, the finest is
-    COARSE), and the finest lies within 2 % of the Richardson extrapolation (the issue's acceptance
+    COARSE), and the finest lies within 2 % of the Richardson extrapolation (the refinement study's acceptance
     criterion; the full study at the default mesh is benchmarks/bench_stiffness_refinement.py)."""
     r = math.sqrt(2.0)
     rows = []

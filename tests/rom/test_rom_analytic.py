@@ -1,4 +1,4 @@
-"""ROM against closed-form solutions (issue 4 acceptance: two-inertia, SDOF resonance, linear case, quasi-static)."""
+"""ROM against closed-form solutions (two-inertia, SDOF resonance, linear case, quasi-static)."""
 import math
 import warnings
 

@@ -1,4 +1,4 @@
-"""Each corruption of issue 7 as a real corrupted file: an error (or a listed repair) naming the
+"""Each corruption a recording can have, as a real corrupted file: an error (or a listed repair) naming the
 file, the channel and the row (CSV line) / time. Repaired records must still give the known TE
 (conftest.py) within the round-trip tolerances.
 """

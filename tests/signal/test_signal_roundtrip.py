@@ -1,6 +1,6 @@
 """Round trip: known TE -> emulated encoders -> file -> reader -> TE -> order spectrum.
 
-Acceptance of issue 7: every component (mesh orders 1-3, input and output shaft order 1) is
+Acceptance of the measurement pipeline: every component (mesh orders 1-3, input and output shaft order 1) is
 recovered within 1 % in amplitude and 2 deg in phase at 60, 1250 and 5000 rpm. The reference is
 the analytic TE the angle histories were built from (conftest.py).
 """

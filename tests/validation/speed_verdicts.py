@@ -12,7 +12,7 @@ def speed_params(rpms, misses: dict[int, str]) -> list:
 
 
 def assert_speed_passes(report, rpm: int, what: str = "reference") -> None:
-    """The report's comparison at ``rpm`` is within issue 5's tolerances (skip: no committed ``what`` there)."""
+    """The report's comparison at ``rpm`` is within the validation tolerances (skip: no committed ``what`` there)."""
     speeds = {int(s.rpm_in): s for s in report.speeds}
     if rpm not in speeds:
         pytest.skip(f"no committed {what} at {rpm} rpm")

@@ -1,8 +1,8 @@
-"""The slow explicit FE run (60 rpm) against the quasi-static STE of the LTCA (issue 5).
+"""The slow explicit FE run (60 rpm) against the quasi-static STE of the LTCA.
 
 Reference: the quasi-static FE (gearrom.fe LTCA: P2 plane strain, influence coefficients, Hertz-resolved
 flanks) at the same torque, plus the rigid kinematic TE of the explicit FE's faceted outlines
-(gearrom.validation.facets), an independent method for the same discretised gears. Issue 5's tolerance:
+(gearrom.validation.facets), an independent method for the same discretised gears. The validation's tolerance:
 within 5 % (mean TE, and RMS of the curve difference relative to the mean STE), never loosened; a miss
 is a strict xfail that states the measured numbers. Skipped while validation/spur_60rpm.* is not committed.
 """

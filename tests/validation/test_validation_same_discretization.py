@@ -1,10 +1,10 @@
-"""The ROM on a table of the explicit FE's own discretisation (issue 5, "the same discretised gears").
+"""The ROM on a table of the explicit FE's own discretisation ("the same discretised gears").
 
 Unit checks of the pieces (facet inversion, low-pass, share rows, the dynamic-relaxation static solve
 on a coarse mesh) and, against the committed records: the slow 60 rpm run is static at the stored
 static solves; the ``explicit_scaled`` table (LTCA at the explicit FE's static compliance,
 gearrom.validation.explicit_table) and the pair ROM with it (``validate(table="explicit_scaled")``) at
-1250 / 2000 rpm under issue 5's tolerances (never loosened; a miss is a strict xfail that states the
+1250 / 2000 rpm under the validation tolerances (never loosened; a miss is a strict xfail that states the
 measured numbers); the analysis-only ``explicit_qs`` table. The static-vs-dynamic analysis is
 validation/rom_vs_fe_spur_same_discretization.json (validation/run_same_discretization.py).
 """

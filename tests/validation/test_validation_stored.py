@@ -2,7 +2,7 @@
 
 Reference: the long explicit FE runs of validation/run_explicit_spur.py (0.15 mm outline Q4 mesh,
 120 Nm, mu = 0, 10 recorded mesh periods), an independent second method (full transient FE with
-penalty contact vs a 1-DOF model on the quasi-static LTCA mesh table). Tolerances are issue 5's
+penalty contact vs a 1-DOF model on the quasi-static LTCA mesh table). Tolerances are the validation's
 (gearrom.validation.compare.TOLERANCES), never loosened: a speed that misses them is an xfail that
 states the measured miss (strict, so that a fix is noticed). Skipped while the reference files are
 not committed. Also the CLI: JSON structure of the issue and the error for a missing stored result.
@@ -85,7 +85,7 @@ def report_full():
 
 
 def test_full_references_have_no_hourglass_energy(report_full):
-    """Issue 5: hourglass energy below 1 % of the internal energy (Abaqus' check). The fully integrated
+    """Hourglass energy below 1 % of the internal energy (Abaqus' check). The fully integrated
     elements have none; the energy balance of the long undamped runs holds within 2 %."""
     for s in report_full.speeds:
         assert s.fe.meta["integration"] == "full"
@@ -163,7 +163,7 @@ def test_helical_report_structure(helical_report, tmp_path):
             assert all(math.isfinite(s["metrics"][key][k]) for k in ("rom", "fe", "rel_error"))
         assert s["passed"] == (not s["misses"])
     for s in helical_report.speeds:
-        # issue 5: hourglass energy below 1 % of internal (fully integrated Hex8: none)
+        # hourglass energy below 1 % of internal (fully integrated Hex8: none)
         assert s.fe.meta["hourglass_ratio"] < 0.01
 
 
