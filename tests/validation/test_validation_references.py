@@ -31,11 +31,7 @@ def _record(rpm: float):
 
 
 #: speeds whose stored record misses a gate, with the finding
-KNOWN_GATE_MISSES = {
-    2000.0: ("drift 2.3 % of GMF1 (limit 2 %): the per-period means scatter by 3.3 % of GMF1 without a trend "
-             "(the gmsh mesh of each whole gear differs from tooth to tooth), which gives the 10-period "
-             "least-squares drift a standard error of 3.4 % of GMF1 (docs/validation.md, Gates)"),
-}
+KNOWN_GATE_MISSES: dict[float, str] = {}
 
 
 @pytest.mark.parametrize("rpm", [pytest.param(r, marks=pytest.mark.xfail(strict=True, reason=KNOWN_GATE_MISSES[r]))
@@ -75,11 +71,7 @@ def test_energy_and_steady_state_gates_hold_for_every_stored_record():
 
 
 #: speeds whose full verdict is a known miss, with the finding (the tests of the GMF lines still judge them)
-KNOWN_MISSES = {
-    2000.0: ("the record misses the drift gate (KNOWN_GATE_MISSES); every metric is within its tolerance: "
-             "mean TE +0.3 %, periodic DTE RMS +3.4 %, GMF1-3 -0.4 / -5.7 / -3.9 %, phases within 1 deg "
-             "(validation/rom_vs_fe_spur_loaded.json)"),
-}
+KNOWN_MISSES: dict[float, str] = {}
 
 
 def _speed(rpm: float):
