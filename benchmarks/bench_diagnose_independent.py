@@ -199,6 +199,7 @@ def mesh_law_comparison(pair: str, torque: float = 120.0) -> dict:
 
     from gearrom.config import load_config
     from gearrom.excitation.fe import fe_excitation, torque_map
+    from gearrom.spectral import line_amplitudes
 
     gp = load_config("thesis-rig" if pair == "helical" else "thesis-spur", check=False).pair
     n, period = 256, 2 * math.pi / gp.z[0]
@@ -209,9 +210,8 @@ def mesh_law_comparison(pair: str, torque: float = 120.0) -> dict:
 
     def row(x):
         x = np.asarray(x) * 1e6
-        k = np.arange(x.size)
         return {"mean_um": float(x.mean()), "ptp_um": float(np.ptp(x)),
-                "gmf_um": [float(abs(2 * np.mean(x * np.exp(-2j * math.pi * h * k / x.size)))) for h in range(1, 6)]}
+                "gmf_um": line_amplitudes(x, 2 * np.pi * np.arange(x.size) / x.size, range(1, 6)).tolist()}
 
     return {"torque_Nm": torque, "datasim": row(te_ds), "gearrom_ltca": row(te_gr)}
 

@@ -29,6 +29,7 @@ import numpy as np
 from gearrom.config import load_config
 from gearrom.fe.mesh2d import MeshSettings
 from gearrom.fe.sweep import stiffness_sweep
+from gearrom.spectral import line_amplitudes
 from gearrom.validation.pair_rom import fe_start_mesh_phase
 from gearrom.validation.static_gate import static_gate
 
@@ -39,8 +40,7 @@ log = logging.getLogger("run_ltca_flank_convergence")
 
 def harmonics(x: np.ndarray, n: int = 3) -> list[float]:
     """Amplitudes of harmonics 1..n of one period sampled uniformly (um in, um out)."""
-    k = np.arange(x.size)
-    return [float(abs(2 * np.mean(x * np.exp(-2j * math.pi * h * k / x.size)))) for h in range(1, n + 1)]
+    return line_amplitudes(x, 2 * np.pi * np.arange(x.size) / x.size, range(1, n + 1)).tolist()
 
 
 def main(gate: Path = GATE, flank_mm=(0.025, 0.0125, 0.00625)) -> Path:
