@@ -16,6 +16,10 @@ Each case also gets ``observability``: what the effect changes in datasim's own 
 against the clean case (mean shift, which encoders zeroed at their first edges do not see, and the
 rms of the rest); a miss whose change lies below the clean record's error says so.
 
+``flank_signature_spread`` gives the static TE change of each flank modification at 4 x tolerance in
+every mesh model at hand (datasim's slices, gearrom's slice LTCA that the diagnosis fits with, and
+gearrom's 3D FE LTCA on a helical pair); a missed modification cites how far they disagree.
+
 The clean record's error is the floor the two mesh models leave (datasim's thin-slice law against
 gearrom's LTCA table; ``static_te_comparison`` gives both static TEs). Where that floor is large (the
 spur pair), each judged case is also given ``pass_above_clean_floor``: named first with the right
@@ -216,6 +220,67 @@ def mesh_law_comparison(pair: str, torque: float = 120.0) -> dict:
     return {"torque_Nm": torque, "datasim": row(te_ds), "gearrom_ltca": row(te_gr)}
 
 
+def flank_signature_spread(pair: str, scale: float = 4.0, torque: float = 120.0) -> dict:
+    """The change of the static TE that each flank modification of the matrix causes at ``scale`` x its
+    tolerance, in each mesh model at hand: datasim's thin slices, gearrom's plane-strain slice LTCA (the
+    diagnosis' micro-geometry model) and, on a helical pair, gearrom's 3D FE LTCA. Mean shift, rms of the
+    rest and GMF1-4 amplitude [um] and phase [deg] of one mesh period at ``torque``. Where the models
+    disagree on the GMF signature by more than its size, no fit of that signature can name the
+    modification from the encoder TE, whose mean the encoders do not see."""
+    import datasim.geometry as dgeo
+    import datasim.mesh as dmesh
+    import numpy as np
+
+    from gearrom.calibrate.microfe import FEMicroModel
+    from gearrom.config import load_config
+    from gearrom.excitation.slices import MicroMods
+
+    gp = load_config("thesis-rig" if pair == "helical" else "thesis-spur", check=False).pair
+    n, period = 96, 2 * math.pi / gp.z[0]
+    theta = np.arange(n) * period / n
+    g = dgeo.geometry_from_config(pair)
+    cb = flank_normal(pair)
+    torques = [0.5 * torque, torque, 1.5 * torque]
+
+    def row(d):
+        c = np.fft.rfft(d) / d.size * 2
+        return {"mean_shift_um": float(d.mean()), "ac_rms_um": float(d.std()),
+                "gmf_um": [float(abs(c[k])) for k in range(1, 5)],
+                "gmf_phase_deg": [float(np.degrees(np.angle(c[k]))) for k in range(1, 5)]}
+
+    def ds(case):
+        return dmesh.static_te(g, dmesh.build_mesh(g, case), theta, torque / gp.rb[1])[0] * 1e6
+
+    models = {"gearrom_slices": FEMicroModel()}
+    if gp.is_helical:
+        models["gearrom_3d"] = FEMicroModel(helical_model="3d")
+    base = {k: np.asarray(m.excitation(gp, torques, MicroMods()).ste(theta, torque), float) * 1e6
+            for k, m in models.items()}
+    base_ds = ds(Case("clean", ()))
+    mods = []
+    tip = TIP_START_MM[pair]
+    if tip is not None:
+        for i, gname in enumerate(("input_gear", "output_gear")):
+            c = scale * TOL["tip_relief_" + ("in" if i == 0 else "out")]
+            amounts = [0.0, 0.0]
+            amounts[i] = c * cb * 1e-6
+            starts = [None, None]
+            starts[i] = tip[i] * 1e-3
+            mods.append((f"tip_relief/{gname}", Case("m", (TipRelief(gname, c, tip[i]),)),
+                         MicroMods(tip_relief=tuple(amounts), tip_relief_start_diameter=tuple(starts))))
+    c = scale * TOL["lead_crowning"]
+    mods.append(("lead_crowning", Case("m", (LeadCrowning(c),)), MicroMods(lead_crowning=c * cb * 1e-6)))
+    c = scale * TOL["helix_slope"]
+    mods.append(("helix_slope", Case("m", (HelixSlope(c),)), MicroMods(helix_slope=c * cb * 1e-6)))
+    out = {"scale": scale, "torque_Nm": torque, "effects": {}}
+    for name, case, mm in mods:
+        e = {"datasim": row(ds(case) - base_ds)}
+        for k, m in models.items():
+            e[k] = row(np.asarray(m.excitation(gp, torques, mm).ste(theta, torque), float) * 1e6 - base[k])
+        out["effects"][name] = e
+    return out
+
+
 def observability(pair: str, case: Case, clean: dict) -> dict:
     """What ``case`` changes in datasim's own ideal-encoder TE (``te_sensor_um``, no encoder errors)
     against the clean case, per speed: the mean shift and the rms of the rest [um]. Encoders zeroed at
@@ -234,6 +299,21 @@ def observability(pair: str, case: Case, clean: dict) -> dict:
         d = np.asarray(r.te_sensor_um)[w] - np.asarray(clean[rpm].te_sensor_um)[w]
         out[f"{rpm:g}"] = {"mean_shift_um": float(d.mean()), "ac_change_rms_um": float(np.std(d))}
     return out
+
+
+def _signature_note(doc: dict, case: dict) -> str | None:
+    """A cause for a missed flank modification whose GMF1 signature the mesh models disagree on: their
+    GMF1 lines of the static TE change at 4 x tolerance (``doc["flank_signature_spread"]``)."""
+    spread = doc.get("flank_signature_spread", {}).get("effects", {})
+    for t in case.get("truth", []):
+        key = t["effect"] + (f"/{t['target']}" if t["effect"] == "tip_relief" else "")
+        e = spread.get(key)
+        if e is None:
+            continue
+        parts = [f"{k} {v['gmf_um'][0]:.3g} um at {v['gmf_phase_deg'][0]:.0f} deg" for k, v in e.items()]
+        return (f"the mesh models disagree on this modification's signature (static TE change at 4 x tolerance, "
+                f"GMF1: {'; '.join(parts)}): its GMF lines identify it only to within that spread")
+    return None
 
 
 def annotate_unobservable(doc: dict) -> None:
@@ -266,6 +346,9 @@ def annotate_unobservable(doc: dict) -> None:
                             f"record's level ({level:.3g} um)")
                     if note not in c["causes"]:
                         c["causes"].append(note)
+            spread = _signature_note(doc, c)
+            if spread and spread not in c["causes"]:
+                c["causes"].append(spread)
             if c["before_um"] <= 1.3 * level:
                 note = (f"not observable: the record's error before ({c['before_um']:.3g} um) is at the clean "
                         f"record's level ({level:.3g} um, the two mesh models' mismatch)")
@@ -327,8 +410,9 @@ def main(argv=None) -> int:
         if c is not None and "observability" not in c and not exp.get("clean") \
                 and exp.get("effect") != "encoder_eccentricity":
             c["observability"] = observability(args.pair, case, clean_runs)
-    annotate_unobservable(doc)
     doc["static_te_comparison"] = mesh_law_comparison(args.pair)
+    doc["flank_signature_spread"] = flank_signature_spread(args.pair)
+    annotate_unobservable(doc)
     out_path.write_text(json.dumps(doc, indent=1, default=float))
     judged = [c for c in doc["cases"].values() if c["pass"] is not None]
     print(f"{args.pair}: {sum(bool(c['pass']) for c in judged)} / {len(judged)} judged cases pass; "
