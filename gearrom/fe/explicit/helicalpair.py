@@ -87,24 +87,44 @@ def _rot(p: np.ndarray, c, angle: float) -> np.ndarray:
 
 
 def helical_meshes(pair, outline_size: float, body_size: float | None = None, grading: float = 2e-3,
-                   project: bool = True):
+                   project: bool = True, sag: float | None = None):
     """Transverse Q4 meshes (nodes, quads, bore) of both gears (:func:`gear_quad_mesh`).
 
     ``gear_quad_mesh`` resamples the outline at twice the outline size and halves the segments, so
     every second outline node is a chord midpoint (chords ``2 outline_size`` long: about 14 um of sag
     near the base circle of the input at 0.4 mm). With ``project`` every outline node is moved onto
-    the generated profile (nearest point of the dense rack-generated outline), so the flank becomes
-    chords of ``outline_size`` with all vertices on the true profile.
+    the generated profile (nearest point of the dense rack-generated outline,
+    :func:`_project_outline`), so the flank becomes chords of ``outline_size`` with all vertices on the
+    true profile. Where those moves would invert an element (fine outlines at the root), the nodes
+    are first placed by ``gear_quad_mesh``'s own projection, which retries another quad algorithm
+    until every element stays valid, and then moved the last sub-um onto the dense outline.
+    ``sag`` (m): refine the flank outline until its chords stay within ``sag`` of the profile
+    (``gear_quad_mesh``'s option; the projection then always takes the second way).
     """
     from gearrom.fe.explicit.gearmesh import gear_quad_mesh
 
     out = []
     for i in (0, 1):
-        nodes, quads, bore = gear_quad_mesh(pair, i, outline_size, body_size, grading, project=False)
+        nodes, quads, bore = gear_quad_mesh(pair, i, outline_size, body_size, grading, project=False, sag=sag)
         if project:
-            nodes = _project_outline(pair, i, nodes, quads, bore)
+            moved = _project_outline(pair, i, nodes, quads, bore)
+            if sag is not None or _inverted(moved, quads):
+                nodes, quads, bore = gear_quad_mesh(pair, i, outline_size, body_size, grading, project=True, sag=sag)
+                moved = _project_outline(pair, i, nodes, quads, bore)
+                if _inverted(moved, quads):
+                    raise MeshError(f"gear {i}: projecting the outline onto the profile inverts an element at "
+                                    f"outline size {outline_size * 1e3:g} mm; try another outline or body size")
+            nodes = moved
         out.append((nodes, quads, bore))
     return out
+
+
+def _inverted(nodes: np.ndarray, quads: np.ndarray) -> bool:
+    """Whether any quad has a non-positive corner (counter-clockwise order expected)."""
+    p = nodes[quads]                                     # (m, 4, 2)
+    a = np.roll(p, -1, axis=1) - p
+    b = np.roll(p, 1, axis=1) - p
+    return bool(np.any(a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0] <= 0))
 
 
 def _project_outline(pair, i: int, nodes: np.ndarray, quads: np.ndarray, bore: np.ndarray,

@@ -1,0 +1,355 @@
+"""Direct static solves of the 3D (Hex8) explicit helical model: same mesh, elements and contact, no time stepping.
+
+The explicit model of :func:`gearrom.fe.explicit.helicalpair.helical_pair_model` is solved for its static
+equilibrium at a given input angle and output torque, as the quasi-static LTCA solves its own model:
+
+* each gear's fully integrated Hex8 stiffness (2x2x2 Gauss points, the gradients and weights of the
+  explicit kernel, :func:`gearrom.fe.explicit.geometry.full_integration_data`; linear elasticity, the
+  small-strain limit of the kernel's St Venant-Kirchhoff law) with its bore clamped, factorized once in
+  the gear's own frame;
+* the pair placed rigidly at the input angle (input turned by ``theta``, output by the kinematic
+  ``-theta z1 / z2``) from the model's start position; the output's rotation ``phi`` beyond that (the
+  rigid approach) is the one unknown of the bores, as the explicit run's rigid references allow;
+* the explicit contact of both passes (drive-flank nodes of each gear on the mate's flank facets,
+  :func:`gearrom.fe.explicit.contact._signed_gap_3d`: the same facet, point and normal as the time loop)
+  taken at the placed geometry: a candidate ``c`` with signed normal gap ``g0_c`` closes by
+  ``a_c phi`` under the output's rotation and opens by the elastic deformation ``(C f)_c``, ``C`` the
+  relative normal compliance of the candidates (both gears); with the penalty ``k`` of its facet,
+  ``g0 - a phi + C f = -f / k`` on the loaded candidates, ``f >= 0``, and ``sum a f`` balances the
+  output torque. A penalty scale of ``inf`` drops the ``1 / k`` (hard contact, the penalty's limit).
+
+The TE is the explicit runs' (:func:`gearrom.fe.explicit.gearpair.transmission_error`): on the transverse
+line of action, zero at rigid first contact in the start position, so that it includes the faceted
+geometry's kinematic error at ``theta``.
+
+Compared with the explicit model's own dynamic relaxation (``validation/run_static_helical.py``), this
+solve has no residual vibration, no mass scaling and no time-step limit on the penalty, so that penalty,
+layers and body extent can be studied at a few seconds per position.
+"""
+from __future__ import annotations
+
+import dataclasses
+import logging
+import math
+import time
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as sla
+from numba import njit
+
+from gearrom.errors import SolverError
+from gearrom.fe.explicit.contact import _shape_q4, _signed_gap_3d, contact_search
+from gearrom.fe.explicit.geometry import full_integration_data
+
+log = logging.getLogger(__name__)
+
+__all__ = ["hex8_stiffness", "GearStiffness", "StaticPoint3D", "static_te_3d"]
+
+
+def hex8_stiffness(nodes: np.ndarray, hexes: np.ndarray, lam: float, mu: float) -> sp.csr_matrix:
+    """Linear-elastic stiffness [N/m] of fully integrated Hex8 elements (3 dofs per node, node-major).
+
+    ``K[3a + i, 3b + j] = sum_g W_g (lam dNa_i dNb_j + mu dNa_j dNb_i + mu delta_ij dNa . dNb)``: the
+    tangent at zero displacement of the explicit kernel's St Venant-Kirchhoff element.
+    """
+    nodes = np.asarray(nodes, float)
+    hexes = np.asarray(hexes, np.int64)
+    Bg, Wg = full_integration_data(nodes, hexes)
+    ne = hexes.shape[0]
+    rows, cols, vals = [], [], []
+    eye = np.eye(3)
+    for lo in range(0, ne, 20000):
+        B = Bg[lo:lo + 20000]
+        W = Wg[lo:lo + 20000]
+        # (e, a, i, b, j)
+        Ke = (lam * np.einsum("eg,egai,egbj->eaibj", W, B, B) + mu * np.einsum("eg,egaj,egbi->eaibj", W, B, B)
+              + mu * np.einsum("eg,egak,egbk,ij->eaibj", W, B, B, eye))
+        dof = (3 * hexes[lo:lo + 20000, :, None] + np.arange(3)[None, None, :]).reshape(-1, 24)
+        rows.append(np.repeat(dof, 24, axis=1).ravel())
+        cols.append(np.tile(dof, (1, 24)).ravel())
+        vals.append(Ke.reshape(-1, 24 * 24).ravel())
+    n = 3 * nodes.shape[0]
+    return sp.coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n)).tocsr()
+
+
+class GearStiffness:
+    """One gear's Hex8 stiffness with its bore clamped, factorized (sparse LU) for many load cases.
+
+    Parameters
+    ----------
+    nodes : ndarray (n, 3)
+        The gear's nodes in its start position, m.
+    hexes : ndarray (ne, 8)
+        Its elements (indices into ``nodes``).
+    clamped : ndarray of int
+        Bore nodes (all three displacements held).
+    lam, mu : float
+        Lame constants, Pa.
+    """
+
+    def __init__(self, nodes: np.ndarray, hexes: np.ndarray, clamped: np.ndarray, lam: float, mu: float) -> None:
+        t0 = time.perf_counter()
+        K = hex8_stiffness(nodes, hexes, lam, mu)
+        n = nodes.shape[0]
+        fixed = np.zeros(3 * n, bool)
+        fixed[(3 * np.asarray(clamped)[:, None] + np.arange(3)).ravel()] = True
+        used = np.zeros(n, bool)
+        used[np.unique(hexes)] = True
+        fixed |= np.repeat(~used, 3)   # nodes of no element (none in a gear mesh; kept safe)
+        self.free = np.nonzero(~fixed)[0]
+        self.index = np.full(3 * n, -1, np.int64)
+        self.index[self.free] = np.arange(self.free.size)
+        Kf = K[self.free][:, self.free]
+        self.n_dofs = int(self.free.size)
+        try:   # MKL PARDISO (optional): a multi-threaded Cholesky whose many-column solves are BLAS 3
+            import pypardiso
+
+            self._upper = sp.triu(Kf, format="csr")
+            self._pardiso = pypardiso.PyPardisoSolver(mtype=2)   # real symmetric positive definite
+            self._pardiso.factorize(self._upper)
+            self.lu = None
+            backend = "MKL PARDISO"
+        except ImportError:
+            self._pardiso = None
+            self.lu = sla.splu(Kf.tocsc(), permc_spec="MMD_AT_PLUS_A")
+            backend = "SuperLU (install pypardiso for faster many-load solves)"
+        log.info("Hex8 stiffness: %d free dofs, assembled and factorized in %.1f s (%s)", self.n_dofs,
+                 time.perf_counter() - t0, backend)
+
+    def response(self, loads: sp.csc_matrix) -> np.ndarray:
+        """Displacements (free dofs x load cases) under nodal ``loads`` (all dofs x load cases, gear frame)."""
+        rhs = np.asarray(loads[self.free].toarray(), float)
+        if self._pardiso is not None:
+            return self._pardiso.solve(self._upper, rhs).reshape(rhs.shape)
+        return self.lu.solve(rhs)
+
+
+@dataclasses.dataclass(frozen=True)
+class StaticPoint3D:
+    """A direct static solve of the 3D explicit model.
+
+    Attributes
+    ----------
+    theta_in : float
+        Input angle from the model's start position, rad.
+    torque : float
+        Output torque, N m.
+    te : float
+        Transmission error on the transverse line of action, m (explicit runs' convention).
+    n_loaded : int
+        Loaded contact nodes (both passes).
+    n_candidates : int
+        Candidates in the solve (signed gap within the window).
+    penalty_scale : float
+        Contact penalty scale of the solve (``ContactPair.penalty_scale``; ``inf``: hard contact).
+    """
+
+    theta_in: float
+    torque: float
+    te: float
+    n_loaded: int
+    n_candidates: int
+    penalty_scale: float
+
+
+@njit(cache=True)
+def _gaps(x, slaves, segs, g_rad, cand, ncand, seg_open):
+    """Facet, (xi, eta), signed gap and normal of every slave's nearest master feature (facet -1: none)."""
+    ns = slaves.shape[0]
+    K = cand.shape[1]
+    lbs = np.empty(K)
+    order = np.empty(K, np.int64)
+    facet = np.full(ns, -1, np.int64)
+    xe = np.zeros((ns, 2))
+    gap = np.zeros(ns)
+    nrm = np.zeros((ns, 3))
+    for i in range(ns):
+        best, bxi, beta, bg, n0, n1, n2 = _signed_gap_3d(x, segs, g_rad, seg_open, cand, ncand, i, slaves[i],
+                                                         lbs, order)
+        facet[i] = best
+        xe[i, 0] = bxi
+        xe[i, 1] = beta
+        gap[i] = bg
+        nrm[i, 0] = n0
+        nrm[i, 1] = n1
+        nrm[i, 2] = n2
+    return facet, xe, gap, nrm
+
+
+def _rot_z(a: float) -> np.ndarray:
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def solve_contact_lcp(C: np.ndarray, a: np.ndarray, g0: np.ndarray, moment: float, soft: np.ndarray,
+                      tol: float = 1e-10, max_iter: int = 2000) -> tuple[np.ndarray, float]:
+    """Contact forces ``f >= 0`` [N] and rigid rotation ``phi`` [rad] of ``g0 - a phi + (C + diag(soft)) f >= 0``,
+    complementary to ``f``, with ``a . f = moment`` (active set: drop the most negative force, add the
+    most penetrated candidate).
+
+    Raises
+    ------
+    SolverError
+        No convergence within ``max_iter`` active-set changes.
+    """
+    n = g0.size
+    r = g0 / np.maximum(a, 1e-30)
+    active = np.zeros(n, bool)
+    active[np.argmin(np.where(a > 0, r, np.inf))] = True
+    Cs = C + np.diag(soft)
+    for _ in range(max_iter):
+        A = np.nonzero(active)[0]
+        m = A.size
+        M = np.zeros((m + 1, m + 1))
+        M[:m, :m] = Cs[np.ix_(A, A)]
+        M[:m, m] = -a[A]
+        M[m, :m] = a[A]
+        rhs = np.concatenate([-g0[A], [moment]])
+        sol = np.linalg.solve(M, rhs)
+        fA, phi = sol[:m], sol[m]
+        if fA.min() < -1e-12 * max(abs(fA).max(), 1e-30):
+            active[A[np.argmin(fA)]] = False
+            continue
+        gap = g0 - a * phi + Cs[:, A] @ fA
+        gap[A] = 0.0
+        j = int(np.argmin(gap))
+        if gap[j] < -tol:
+            active[j] = True
+            continue
+        f = np.zeros(n)
+        f[A] = np.maximum(fA, 0.0)
+        return f, float(phi)
+    raise SolverError(f"contact active set did not converge in {max_iter} changes ({n} candidates)")
+
+
+def static_te_3d(model, info: dict, pair, thetas, torques, penalty_scales=None, window: float = 40e-6,
+                 stiffness: tuple[GearStiffness, GearStiffness] | None = None) -> list[StaticPoint3D]:
+    """Static TE of a 3D explicit helical model at input angles ``thetas`` [rad] and output torques [N m].
+
+    Parameters
+    ----------
+    model, info
+        From :func:`gearrom.fe.explicit.helicalpair.helical_pair_model` (full bodies or cut sectors).
+    pair : GearPair
+    thetas : sequence of float
+        Input angles from the start position, rad.
+    torques : sequence of float
+        Output torques, N m (solved on the same compliances).
+    penalty_scales : sequence of float, optional
+        Contact penalty scales to solve with (``ContactPair.penalty_scale``: the explicit penalty ``k`` in
+        proportion; ``math.inf``: hard contact, the penalty's limit), each on the same compliances.
+        Default: the model's own.
+    window : float
+        Candidates: slave nodes whose signed gap at the rigid placement is below this, m; enlarged
+        automatically when the solve closes a gap that was left out.
+    stiffness : pair of GearStiffness, optional
+        Factorized gears of this model (reused across calls).
+
+    Returns
+    -------
+    list of StaticPoint3D, angle-major, then penalty scale, then torque.
+    """
+    from gearrom.fe.explicit.driver import prepare
+
+    X = np.asarray(model.nodes, float)
+    hexes = np.asarray(model.elements, np.int64)
+    n1 = int(info["n_nodes_gear1"])
+    lam, mu = model.material.lame
+    c2 = np.array([pair.aw, 0.0, 0.0])
+    if stiffness is None:
+        stiffness = (GearStiffness(X[:n1], hexes[(hexes < n1).all(1)], model.node_sets["bore_1"], lam, mu),
+                     GearStiffness(X[n1:], hexes[(hexes >= n1).all(1)] - n1, model.node_sets["bore_2"] - n1, lam, mu))
+    d = prepare(model, 0.9, 32)
+    slaves, segs, g_k = d["slaves"], d["segs"], d["g_k"]
+    depth = d["p_depth"][d["s_pair"]]
+    p_model = float(model.contacts[0].penalty_scale)
+    scales = [p_model] if penalty_scales is None else [float(p) for p in penalty_scales]
+    if any(not p > 0 for p in scales):
+        raise SolverError(f"penalty scales must be positive (inf: hard contact), got {scales}")
+    rb1, rb2 = pair.rb
+    ratio = pair.z[0] / pair.z[1]
+    s1 = math.copysign(1.0, info["omega_in"])
+    out = []
+    for th in thetas:
+        a1, a2 = s1 * th, -s1 * th * ratio
+        R1, R2 = _rot_z(a1), _rot_z(a2)
+        x = np.empty_like(X)
+        x[:n1] = X[:n1] @ R1.T
+        x[n1:] = (X[n1:] - c2) @ R2.T + c2
+        w = window
+        for _attempt in range(4):
+            contact_search(x, slaves, d["s_pair"], segs, d["g_pair"], d["g_rad"], d["margin"] + w, d["head"],
+                           d["nxt"], d["cand"], d["ncand"], d["cell_h"])
+            facet, xe, gap, nrm = _gaps(x, slaves, segs, d["g_rad"], d["cand"], d["ncand"], d["seg_open"])
+            # deeper than the capture depth: the node is past the facet's body (the explicit contact ignores it)
+            pick = np.nonzero((facet >= 0) & (gap < w) & (gap > -depth))[0]
+            if pick.size == 0:
+                raise SolverError(f"no contact candidate within {w * 1e6:.0f} um at theta = {th:.6f} rad")
+            res = _solve_position(x, X, n1, c2, R1, R2, slaves, segs, g_k * (np.array(scales)[:, None] / p_model),
+                                  facet, xe, gap, nrm, pick, stiffness, torques)
+            # a slave left out that the rigid approach alone would close: widen the window and redo
+            rest = np.setdiff1d(np.nonzero((facet >= 0) & (gap > -depth))[0], pick)
+            phi_max = max(r[1] for rs in res for r in rs)
+            if rest.size == 0 or np.all(gap[rest] - _approach(x, slaves, segs, facet, xe, nrm, rest, n1, c2) * phi_max
+                                        > 0):
+                break
+            w *= 2
+        else:
+            raise SolverError(f"contact window grew beyond {w * 1e6:.0f} um at theta = {th:.6f} rad")
+        for p, rs in zip(scales, res):
+            for tq, (f, phi) in zip(torques, rs):
+                te = rb2 * (phi - info["clearance_angle"])
+                out.append(StaticPoint3D(float(th), float(tq), float(te), int((f > 0).sum()), int(pick.size), p))
+                log.info("theta %.5f rad, %g N m, penalty %g: TE %.3f um (%d of %d candidates loaded)", th, tq, p,
+                         te * 1e6, (f > 0).sum(), pick.size)
+    return out
+
+
+def _approach(x, slaves, segs, facet, xe, nrm, idx, n1, c2) -> np.ndarray:
+    """Closure of the signed gap per unit output rotation (counter-clockwise about its centre), m/rad."""
+    ez = np.array([0.0, 0.0, 1.0])
+    a = np.empty(idx.size)
+    for k, i in enumerate(idx):
+        s = slaves[i]
+        if s < n1:   # slave on the input, facet on the output: the facet point moves
+            N = _shape_q4(xe[i, 0], xe[i, 1])
+            p = np.asarray(N) @ x[segs[facet[i]]]
+            a[k] = nrm[i] @ np.cross(ez, p - c2)
+        else:        # slave on the output: the node moves
+            a[k] = -nrm[i] @ np.cross(ez, x[s] - c2)
+    return a
+
+
+def _solve_position(x, X, n1, c2, R1, R2, slaves, segs, g_k, facet, xe, gap, nrm, pick, stiffness, torques):
+    """Contact solves at one placement for every penalty (rows of ``g_k``) and torque: [[(forces, phi)]]."""
+    nc = pick.size
+    n_nodes = X.shape[0]
+    loads = [([], [], []), ([], [], [])]   # per gear: rows, cols, values in its own frame
+    R = (R1, R2)
+    for c, i in enumerate(pick):
+        s = slaves[i]
+        N = np.asarray(_shape_q4(xe[i, 0], xe[i, 1]))
+        quad = segs[facet[i]]
+        nv = nrm[i]
+        for node, wgt in [(s, 1.0)] + [(q, -N[k]) for k, q in enumerate(quad)]:
+            g = 0 if node < n1 else 1
+            local = R[g].T @ nv * wgt   # the load in the gear's start frame
+            base = 3 * (node - (0 if g == 0 else n1))
+            rows, cols, vals = loads[g]
+            rows.extend(base + np.arange(3))
+            cols.extend([c] * 3)
+            vals.extend(local)
+    C = np.zeros((nc, nc))
+    for g, st in enumerate(stiffness):
+        rows, cols, vals = loads[g]
+        n_g = n1 if g == 0 else n_nodes - n1
+        P = sp.csc_matrix((vals, (rows, cols)), shape=(3 * n_g, nc))
+        U = st.response(P)
+        Pf = P[st.free]
+        C += (Pf.T @ U)
+    C = 0.5 * (C + C.T)
+    a = _approach(x, slaves, segs, facet, xe, nrm, pick, n1, c2)
+    if np.median(a) <= 0:
+        raise SolverError("the output's counter-clockwise rotation does not close the contact (flank sets reversed?)")
+    return [[solve_contact_lcp(C, a, gap[pick], float(tq), 1.0 / gk[facet[pick]]) for tq in torques] for gk in g_k]
