@@ -9,8 +9,11 @@ The explicit model is the helical references' kind (:func:`gearrom.fe.explicit.h
 transverse Q4 outline on the generated profile extruded in twisted Hex8 layers, fully integrated, two-pass
 node-to-facet penalty contact), with whole gear bodies to the bores unless ``--sector`` cuts each gear to
 the sector a run of that input angle meets. Each point is a direct static solve of that model
-(:func:`gearrom.validation.explicit_static3d.static_te_3d`) at input angle ``j P / n`` from the start
-position, for every penalty scale on the same compliances (``inf``: hard contact, the penalty's limit).
+(:func:`gearrom.fe.explicit.static3d.static_te_3d`) at input angle ``j P / n`` from the start
+position, for every penalty scale on the same compliances (``inf``: hard contact, the penalty's limit), on
+the contact geometry of the rigid placement. ``geometry_update_at_start`` gives, per penalty scale, the
+start position's TE re-solved on the deformed geometry (the explicit model's equilibrium,
+:meth:`~gearrom.fe.explicit.static3d.StaticPair3D.loaded_state`) beside the linear one.
 
 The LTCA side is the quasi-static 3D FE table of the sweep (:func:`gearrom.validation.pair_rom.mesh_excitation`)
 at the same torques. The limits and the verdict per penalty scale are
@@ -37,7 +40,7 @@ import numpy as np
 from gearrom.config import load_config
 from gearrom.fe.explicit.gearpair import GearPairSetup
 from gearrom.fe.explicit.helicalpair import helical_meshes, helical_pair_model
-from gearrom.validation.explicit_static3d import GearStiffness, static_te_3d
+from gearrom.fe.explicit.static3d import GearStiffness, StaticPair3D, static_te_3d
 from gearrom.validation.pair_rom import fe_start_mesh_phase, mesh_excitation
 from gearrom.validation.static_gate import static_gate
 
@@ -66,12 +69,14 @@ def main(n: int = 16, torques=(60.0, 120.0), layers: int = 8, outline: float = 0
     keys = [f"{p:g}" for p in penalties]
     data.update(config="thesis-helical", integration="full", n_layers=layers, outline_size_mm=outline * 1e3,
                 body_size_mm=body * 1e3, grading_mm=grading * 1e3, sector_rad=sector, n_points=n,
-                solver="direct static solve of the explicit model (gearrom.validation.explicit_static3d)",
+                solver="direct static solve of the explicit model (gearrom.fe.explicit.static3d)",
                 definition="static TE on the transverse line of action (explicit runs' convention: zero at rigid "
                            "first contact of the start position) at input angle j * mesh_period / n_points, "
                            "per contact penalty scale (inf: hard contact)")
     todo = [j for j in range(n) if not all(f"{k}/{t:g}" in pts.get(str(j), {}) for k in keys for t in torques)]
-    if todo:
+    upd = data.setdefault("geometry_update_at_start", {})
+    upd_todo = [k for k in keys if k not in upd]
+    if todo or upd_todo:
         t0 = time.perf_counter()
         meshes = helical_meshes(pair, outline, body, grading)
         setup = GearPairSetup(rpm_in=1e-4, torque_out=max(torques), penalty_scale=MODEL_PENALTY, integration="full")
@@ -91,6 +96,16 @@ def main(n: int = 16, torques=(60.0, 120.0), layers: int = 8, outline: float = 0
             pts[str(j)]["solve_s"] = time.perf_counter() - t1
             out.write_text(json.dumps(data, indent=2, default=float) + "\n")
             log.info("point %d/%d done in %.0f s", j + 1, n, time.perf_counter() - t1)
+        # the points solve on the rigid placement's contact geometry; at the start position the state is also
+        # re-solved on the deformed geometry (as the explicit contact acts), at the highest torque
+        sp3 = StaticPair3D(model, info, pair, stiff)
+        for k, p in zip(keys, penalties):
+            if k in upd:
+                continue
+            _, _, te_upd = sp3.loaded_state(max(torques), p)
+            upd[k] = {"torque_Nm": max(torques), "te_linear_um": pts["0"][f"{k}/{max(torques):g}"],
+                      "te_updated_um": te_upd * 1e6}
+            out.write_text(json.dumps(data, indent=2, default=float) + "\n")
     phase0 = fe_start_mesh_phase(pair)
     th = np.arange(n) * period / n
     lt = {}

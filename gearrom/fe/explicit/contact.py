@@ -361,6 +361,31 @@ def _signed_gap_3d(x, segs, g_rad, seg_open, cand, ncand, i, n, lbs, order, cuto
 
 
 @njit(cache=True)
+def nearest_facets_3d(x, slaves, segs, g_rad, cand, ncand, seg_open):
+    """Nearest master feature of every slave as the 3D contact sees it: facet (-1: none), (xi, eta) on it,
+    signed gap [m] (negative = penetration) and contact normal (unit, from the master towards the slave)."""
+    ns = slaves.shape[0]
+    K = cand.shape[1]
+    lbs = np.empty(K)
+    order = np.empty(K, np.int64)
+    facet = np.full(ns, -1, np.int64)
+    xe = np.zeros((ns, 2))
+    gap = np.zeros(ns)
+    nrm = np.zeros((ns, 3))
+    for i in range(ns):
+        best, bxi, beta, bg, n0, n1, n2 = _signed_gap_3d(x, segs, g_rad, seg_open, cand, ncand, i, slaves[i],
+                                                         lbs, order)
+        facet[i] = best
+        xe[i, 0] = bxi
+        xe[i, 1] = beta
+        gap[i] = bg
+        nrm[i, 0] = n0
+        nrm[i, 1] = n1
+        nrm[i, 2] = n2
+    return facet, xe, gap, nrm
+
+
+@njit(cache=True)
 def signed_gaps_3d(x, slaves, segs, g_rad, cand, ncand, seg_open):
     """Signed gap of every slave node (m; NaN without a master feature in reach), as the 3D contact sees it."""
     out = np.full(slaves.shape[0], np.nan)
@@ -385,7 +410,7 @@ def open_edge_allowance(g_rad):
 
 
 @njit(cache=True, inline="always")
-def _shape_q4(xi, eta):
+def shape_q4(xi, eta):
     """Bilinear shape functions of a facet's four nodes at (xi, eta)."""
     return (0.25 * (1 - xi) * (1 - eta), 0.25 * (1 + xi) * (1 - eta),
             0.25 * (1 + xi) * (1 + eta), 0.25 * (1 - xi) * (1 + eta))
@@ -414,7 +439,7 @@ def contact_slave_3d(x, v, slaves, s_pair, segs, g_k, g_rad, cand, ncand, p_mu, 
     mu = p_mu[p]
     pfric = 0.0
     if mu > 0.0:
-        N = _shape_q4(bxi, beta)
+        N = shape_q4(bxi, beta)
         vx = v[n, 0]; vy = v[n, 1]; vz = v[n, 2]
         for q in range(4):
             nd = segs[best, q]
@@ -456,7 +481,7 @@ def contact_scatter_3d(slaves, segs, out, f, gap):
         pfric += out[i, 8]
         n = slaves[i]
         f[n, 0] += fx; f[n, 1] += fy; f[n, 2] += fz
-        N = _shape_q4(bxi, beta)
+        N = shape_q4(bxi, beta)
         for q in range(4):
             nd = segs[s, q]
             f[nd, 0] -= N[q] * fx; f[nd, 1] -= N[q] * fy; f[nd, 2] -= N[q] * fz

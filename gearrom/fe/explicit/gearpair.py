@@ -333,18 +333,19 @@ def relaxed_state(model: ExplicitModel, torque: float, *, alpha: float = 4.0e4, 
 def loaded_model(model: ExplicitModel, info: dict, setup: GearPairSetup, relaxed=None) -> ExplicitModel:
     """``model`` started from its loaded static state with rigid-body speeds and the full torque.
 
-    ``relaxed`` is :func:`relaxed_state`'s output for ``model`` (computed when omitted). Every node
-    gets the velocity of its gear's rigid rotation about the gear axis at its deformed position.
+    ``relaxed`` is :func:`relaxed_state`'s output for ``model`` (computed when omitted), or ``(u, theta,
+    0.0)`` of a direct static solve (3D models: :meth:`gearrom.fe.explicit.static3d.StaticPair3D.loaded_state`).
+    Every node gets the velocity of its gear's rigid rotation about the gear axis at its deformed position.
     """
     u, theta, _ = relaxed if relaxed is not None else relaxed_state(model, setup.torque_out)
-    off = info["n_gear1"]
+    off = info.get("n_nodes_gear1", info["n_gear1"])   # 3D (helical) models count the extruded nodes
     r1, r2 = model.references
     c2 = np.asarray(r2.center, float)
     x = model.nodes + u
     v = np.zeros_like(x)
-    v[:off] = info["omega_in"] * np.column_stack([-x[:off, 1], x[:off, 0]])
-    p2 = x[off:] - c2
-    v[off:] = info["omega_out"] * np.column_stack([-p2[:, 1], p2[:, 0]])
+    v[:off, :2] = info["omega_in"] * np.column_stack([-x[:off, 1], x[:off, 0]])
+    p2 = x[off:, :2] - c2
+    v[off:, :2] = info["omega_out"] * np.column_stack([-p2[:, 1], p2[:, 0]])
     refs = (dataclasses.replace(r1, speed=info["omega_in"], ramp_time=0.0, theta0=float(theta[0])),
             dataclasses.replace(r2, torque=setup.torque_out, torque_ramp_time=0.0, omega0=info["omega_out"],
                                 theta0=float(theta[1])))

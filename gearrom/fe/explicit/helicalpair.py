@@ -471,16 +471,49 @@ def run_helical_pair(pair, meshes, setup: GearPairSetup, t_end: float, sample_pe
     twisted, so the facet that holds a node's projection is often not among the few with the nearest
     centroids (the solver default of 8 then misses contacts until they are deep). ``sector``: cut
     both gears to the sectors that mesh until ``t_end`` (see :func:`helical_pair_model`).
+
+    ``setup.start == "loaded"``: the run starts from the loaded static state at the start position, found by
+    a direct static solve of the same model with its contact geometry updated to the deformed positions
+    (:meth:`gearrom.fe.explicit.static3d.StaticPair3D.loaded_state`: the explicit model's own
+    equilibrium), each gear at its rigid-body speed and the full torque at t = 0. With a checkpoint
+    (``solve_kw``) that state is stored next to it (``<checkpoint>.loaded.npz``) and reused.
     """
     from gearrom.fe.explicit.driver import prepare
 
     run_angle = setup.rpm_in * 2 * math.pi / 60 * t_end if sector else None
     model, info = helical_pair_model(pair, meshes, setup, n_layers, run_angle=run_angle, stagger=stagger)
+    if setup.start == "loaded":
+        from gearrom.fe.explicit.gearpair import loaded_model
+
+        state = _loaded_state(model, info, pair, setup.torque_out, solve_kw.get("checkpoint"))
+        log.info("loaded start: static TE %.3f um (direct static solve)", state[2] * 1e6)
+        model = loaded_model(model, info, setup, (state[0], state[1], 0.0))
+        info = dict(info, loaded_te_m=state[2])
     res = solve(model, t_end, sample_period, prepared=prepare(model, solve_kw.pop("safety", 0.9), max_candidates),
                 **solve_kw)
     te = transmission_error(res, info["rb"], info["clearance_angle"])
-    res.meta.update(rpm_in=setup.rpm_in, torque_out_Nm=setup.torque_out, mu=setup.mu,
+    res.meta.update(rpm_in=setup.rpm_in, torque_out_Nm=setup.torque_out, mu=setup.mu, start=setup.start,
                     flank_spacing_m=info["flank_spacing_m"], penalty_scale=setup.penalty_scale,
                     n_layers=n_layers, layer_m=info["layer_m"], max_candidates=max_candidates,
                     removed_inertia_kgm2=info["removed_inertia_kgm2"])
     return res, te, info
+
+
+def _loaded_state(model, info, pair, torque: float, checkpoint=None):
+    """(u, theta, te) of the loaded start, from ``<checkpoint>.loaded.npz`` when it matches the model."""
+    from pathlib import Path
+
+    from gearrom.fe.explicit.static3d import StaticPair3D
+
+    store = None if checkpoint is None else Path(str(checkpoint) + ".loaded.npz")
+    if store is not None and store.is_file():
+        with np.load(store) as z:
+            if z["u"].shape == model.nodes.shape and float(z["torque"]) == torque:
+                return z["u"].copy(), z["theta"].copy(), float(z["te"])
+    u, theta, te = StaticPair3D(model, info, pair).loaded_state(torque)
+    if store is not None:
+        from gearrom.fe.cache import atomic_path
+
+        with atomic_path(store) as tmp:
+            np.savez(tmp, u=u, theta=theta, te=te, torque=torque)
+    return u, theta, te

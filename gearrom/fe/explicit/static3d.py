@@ -36,15 +36,14 @@ import time
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as sla
-from numba import njit
 
 from gearrom.errors import SolverError
-from gearrom.fe.explicit.contact import _shape_q4, _signed_gap_3d, contact_search
+from gearrom.fe.explicit.contact import contact_search, nearest_facets_3d, shape_q4
 from gearrom.fe.explicit.geometry import full_integration_data
 
 log = logging.getLogger(__name__)
 
-__all__ = ["hex8_stiffness", "GearStiffness", "StaticPoint3D", "static_te_3d"]
+__all__ = ["hex8_stiffness", "GearStiffness", "StaticPair3D", "StaticPoint3D", "static_te_3d"]
 
 
 def hex8_stiffness(nodes: np.ndarray, hexes: np.ndarray, lam: float, mu: float) -> sp.csr_matrix:
@@ -153,30 +152,6 @@ class StaticPoint3D:
     penalty_scale: float
 
 
-@njit(cache=True)
-def _gaps(x, slaves, segs, g_rad, cand, ncand, seg_open):
-    """Facet, (xi, eta), signed gap and normal of every slave's nearest master feature (facet -1: none)."""
-    ns = slaves.shape[0]
-    K = cand.shape[1]
-    lbs = np.empty(K)
-    order = np.empty(K, np.int64)
-    facet = np.full(ns, -1, np.int64)
-    xe = np.zeros((ns, 2))
-    gap = np.zeros(ns)
-    nrm = np.zeros((ns, 3))
-    for i in range(ns):
-        best, bxi, beta, bg, n0, n1, n2 = _signed_gap_3d(x, segs, g_rad, seg_open, cand, ncand, i, slaves[i],
-                                                         lbs, order)
-        facet[i] = best
-        xe[i, 0] = bxi
-        xe[i, 1] = beta
-        gap[i] = bg
-        nrm[i, 0] = n0
-        nrm[i, 1] = n1
-        nrm[i, 2] = n2
-    return facet, xe, gap, nrm
-
-
 def _rot_z(a: float) -> np.ndarray:
     c, s = math.cos(a), math.sin(a)
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
@@ -223,15 +198,159 @@ def solve_contact_lcp(C: np.ndarray, a: np.ndarray, g0: np.ndarray, moment: floa
     raise SolverError(f"contact active set did not converge in {max_iter} changes ({n} candidates)")
 
 
-def static_te_3d(model, info: dict, pair, thetas, torques, penalty_scales=None, window: float = 40e-6,
-                 stiffness: tuple[GearStiffness, GearStiffness] | None = None) -> list[StaticPoint3D]:
-    """Static TE of a 3D explicit helical model at input angles ``thetas`` [rad] and output torques [N m].
+class StaticPair3D:
+    """A 3D explicit helical model prepared for direct static solves (stiffness factorized, contact arrays).
 
     Parameters
     ----------
     model, info
         From :func:`gearrom.fe.explicit.helicalpair.helical_pair_model` (full bodies or cut sectors).
     pair : GearPair
+    stiffness : pair of GearStiffness, optional
+        Factorized gears of this model (built when omitted).
+    window : float
+        Candidates: slave nodes whose signed gap at the rigid placement is below this, m; enlarged
+        automatically when the solve closes a gap that was left out.
+    """
+
+    def __init__(self, model, info: dict, pair, stiffness: tuple[GearStiffness, GearStiffness] | None = None,
+                 window: float = 40e-6) -> None:
+        from gearrom.fe.explicit.driver import prepare
+
+        self.model, self.info, self.pair, self.window = model, info, pair, window
+        self.X = np.asarray(model.nodes, float)
+        hexes = np.asarray(model.elements, np.int64)
+        self.n1 = n1 = int(info["n_nodes_gear1"])
+        lam, mu = model.material.lame
+        self.c2 = np.array([pair.aw, 0.0, 0.0])
+        if stiffness is None:
+            stiffness = (GearStiffness(self.X[:n1], hexes[(hexes < n1).all(1)], model.node_sets["bore_1"], lam, mu),
+                         GearStiffness(self.X[n1:], hexes[(hexes >= n1).all(1)] - n1, model.node_sets["bore_2"] - n1,
+                                       lam, mu))
+        self.stiffness = stiffness
+        self.d = prepare(model, 0.9, 32)
+        self.depth = self.d["p_depth"][self.d["s_pair"]]
+        self.p_model = float(model.contacts[0].penalty_scale)
+
+    def _scales(self, penalty_scales) -> list[float]:
+        scales = [self.p_model] if penalty_scales is None else [float(p) for p in penalty_scales]
+        if any(not p > 0 for p in scales):
+            raise SolverError(f"penalty scales must be positive (inf: hard contact), got {scales}")
+        return scales
+
+    def solve(self, theta: float, torques, penalty_scales=None, keep_state: bool = False):
+        """Contact solves at input angle ``theta`` [rad] for every penalty scale and torque.
+
+        Returns ``(rows, n_candidates, state)``: ``rows[p][t] = (forces, phi)``; ``state`` (with
+        ``keep_state``) holds what :meth:`loaded_state` needs.
+        """
+        X, n1, c2, d = self.X, self.n1, self.c2, self.d
+        slaves, segs = d["slaves"], d["segs"]
+        scales = self._scales(penalty_scales)
+        s1 = math.copysign(1.0, self.info["omega_in"])
+        R1, R2 = _rot_z(s1 * theta), _rot_z(-s1 * theta * self.pair.z[0] / self.pair.z[1])
+        x = np.empty_like(X)
+        x[:n1] = X[:n1] @ R1.T
+        x[n1:] = (X[n1:] - c2) @ R2.T + c2
+        g_k = d["g_k"] * (np.array(scales)[:, None] / self.p_model)
+        w = self.window
+        for _attempt in range(4):
+            contact_search(x, slaves, d["s_pair"], segs, d["g_pair"], d["g_rad"], d["margin"] + w, d["head"],
+                           d["nxt"], d["cand"], d["ncand"], d["cell_h"])
+            facet, xe, gap, nrm = nearest_facets_3d(x, slaves, segs, d["g_rad"], d["cand"], d["ncand"], d["seg_open"])
+            # deeper than the capture depth: the node is past the facet's body (the explicit contact ignores it)
+            reach = (facet >= 0) & (gap > -self.depth)
+            pick = np.nonzero(reach & (gap < w))[0]
+            if pick.size == 0:
+                raise SolverError(f"no contact candidate within {w * 1e6:.0f} um at theta = {theta:.6f} rad")
+            P, U, C, a = _system(x, X, n1, c2, (R1, R2), slaves, segs, facet, xe, nrm, pick, self.stiffness)
+            rows = [[solve_contact_lcp(C, a, gap[pick], float(tq), 1.0 / gk[facet[pick]]) for tq in torques]
+                    for gk in g_k]
+            # a slave left out that the rigid approach alone would close: widen the window and redo
+            rest = np.setdiff1d(np.nonzero(reach)[0], pick)
+            phi_max = max(r[1] for rs in rows for r in rs)
+            if rest.size == 0 or np.all(gap[rest] - _approach(x, slaves, segs, facet, xe, nrm, rest, n1, c2) * phi_max
+                                        > 0):
+                break
+            w *= 2
+        else:
+            raise SolverError(f"contact window grew beyond {w * 1e6:.0f} um at theta = {theta:.6f} rad")
+        state = dict(P=P, U=U, R=(R1, R2), x=x) if keep_state else None
+        return rows, int(pick.size), state
+
+    def loaded_state(self, torque: float, penalty_scale: float | None = None, iterations: int = 8,
+                     tol: float = 1e-11):
+        """The loaded static state at the model's start position, as the explicit driver takes it.
+
+        The linear solve takes the contact geometry of the rigid placement; the explicit contact acts on
+        the deformed one (facets turned with the output's rotation, points slid along them). So the state
+        is re-solved on the current geometry: with the candidates' gaps, normals and facet points found
+        at the deformed positions and the elastic field's own normal opening removed from the gaps, the
+        forces and the output's further rotation follow from the same complementarity problem; repeated
+        until the rotation changes by less than ``tol`` on the line of action [m].
+
+        Returns
+        -------
+        u : ndarray (n, 3)
+            Nodal displacements from the model's nodes, m (the output's rigid rotation included).
+        theta : ndarray (2,)
+            Reference rotations (input 0, output ``phi``), rad, as :func:`gearrom.fe.explicit.gearpair.loaded_model`
+            takes them.
+        te : float
+            The state's TE, m.
+        """
+        scales = self._scales(None if penalty_scale is None else [penalty_scale])
+        rows, _, st = self.solve(0.0, [torque], scales, keep_state=True)
+        f, phi = rows[0][0]
+        X, n1, c2, d = self.X, self.n1, self.c2, self.d
+        slaves, segs = d["slaves"], d["segs"]
+        g_k = d["g_k"] * (scales[0] / self.p_model)
+        u_el = [U @ f for U in st["U"]]           # elastic fields (free dofs) in the gears' frames
+        for it in range(iterations):
+            u = self._displacements(u_el, phi)
+            x = X + u
+            contact_search(x, slaves, d["s_pair"], segs, d["g_pair"], d["g_rad"], d["margin"] + self.window,
+                           d["head"], d["nxt"], d["cand"], d["ncand"], d["cell_h"])
+            facet, xe, gap, nrm = nearest_facets_3d(x, slaves, segs, d["g_rad"], d["cand"], d["ncand"], d["seg_open"])
+            pick = np.nonzero((facet >= 0) & (gap > -self.depth) & (gap < self.window))[0]
+            R = (np.eye(3), _rot_z(phi))
+            P, U, C, a = _system(x, X, n1, c2, R, slaves, segs, facet, xe, nrm, pick, self.stiffness)
+            opening = sum(Pg[stf.free].T @ ue for Pg, stf, ue in zip(P, self.stiffness, u_el))
+            f, dphi = solve_contact_lcp(C, a, gap[pick] - opening, float(torque), 1.0 / g_k[facet[pick]])
+            phi += dphi
+            u_el = [Ug @ f for Ug in U]
+            log.info("loaded state, geometry update %d: output turned by %.3g um more on the line of action",
+                     it + 1, dphi * self.pair.rb[1] * 1e6)
+            if abs(dphi) * self.pair.rb[1] < tol:
+                break
+        u = self._displacements(u_el, phi)
+        te = self.pair.rb[1] * (phi - self.info["clearance_angle"])
+        return u, np.array([0.0, phi]), float(te)
+
+    def _displacements(self, u_el, phi: float) -> np.ndarray:
+        """Nodal displacements [m] of the start-position model: the elastic fields (free dofs of each gear's
+        frame), the output's turned with its rigid rotation ``phi`` about its centre."""
+        X, n1, c2 = self.X, self.n1, self.c2
+        u = np.zeros_like(X)
+        for g, (stf, ue_free) in enumerate(zip(self.stiffness, u_el)):
+            ue = np.zeros(3 * (n1 if g == 0 else X.shape[0] - n1))
+            ue[stf.free] = ue_free
+            ue = ue.reshape(-1, 3)
+            if g == 0:
+                u[:n1] = ue
+            else:
+                u[n1:] = (X[n1:] - c2 + ue) @ _rot_z(phi).T + c2 - X[n1:]
+        return u
+
+
+def static_te_3d(model, info: dict, pair, thetas, torques, penalty_scales=None, window: float = 40e-6,
+                 stiffness: tuple[GearStiffness, GearStiffness] | None = None) -> list[StaticPoint3D]:
+    """Static TE of a 3D explicit helical model at input angles ``thetas`` [rad] and output torques [N m].
+
+    Parameters
+    ----------
+    model, info, pair, stiffness, window
+        As for :class:`StaticPair3D`.
     thetas : sequence of float
         Input angles from the start position, rad.
     torques : sequence of float
@@ -240,69 +359,23 @@ def static_te_3d(model, info: dict, pair, thetas, torques, penalty_scales=None, 
         Contact penalty scales to solve with (``ContactPair.penalty_scale``: the explicit penalty ``k`` in
         proportion; ``math.inf``: hard contact, the penalty's limit), each on the same compliances.
         Default: the model's own.
-    window : float
-        Candidates: slave nodes whose signed gap at the rigid placement is below this, m; enlarged
-        automatically when the solve closes a gap that was left out.
-    stiffness : pair of GearStiffness, optional
-        Factorized gears of this model (reused across calls).
 
     Returns
     -------
     list of StaticPoint3D, angle-major, then penalty scale, then torque.
     """
-    from gearrom.fe.explicit.driver import prepare
-
-    X = np.asarray(model.nodes, float)
-    hexes = np.asarray(model.elements, np.int64)
-    n1 = int(info["n_nodes_gear1"])
-    lam, mu = model.material.lame
-    c2 = np.array([pair.aw, 0.0, 0.0])
-    if stiffness is None:
-        stiffness = (GearStiffness(X[:n1], hexes[(hexes < n1).all(1)], model.node_sets["bore_1"], lam, mu),
-                     GearStiffness(X[n1:], hexes[(hexes >= n1).all(1)] - n1, model.node_sets["bore_2"] - n1, lam, mu))
-    d = prepare(model, 0.9, 32)
-    slaves, segs, g_k = d["slaves"], d["segs"], d["g_k"]
-    depth = d["p_depth"][d["s_pair"]]
-    p_model = float(model.contacts[0].penalty_scale)
-    scales = [p_model] if penalty_scales is None else [float(p) for p in penalty_scales]
-    if any(not p > 0 for p in scales):
-        raise SolverError(f"penalty scales must be positive (inf: hard contact), got {scales}")
-    rb1, rb2 = pair.rb
-    ratio = pair.z[0] / pair.z[1]
-    s1 = math.copysign(1.0, info["omega_in"])
+    sp3 = StaticPair3D(model, info, pair, stiffness, window)
+    scales = sp3._scales(penalty_scales)
+    rb2 = pair.rb[1]
     out = []
     for th in thetas:
-        a1, a2 = s1 * th, -s1 * th * ratio
-        R1, R2 = _rot_z(a1), _rot_z(a2)
-        x = np.empty_like(X)
-        x[:n1] = X[:n1] @ R1.T
-        x[n1:] = (X[n1:] - c2) @ R2.T + c2
-        w = window
-        for _attempt in range(4):
-            contact_search(x, slaves, d["s_pair"], segs, d["g_pair"], d["g_rad"], d["margin"] + w, d["head"],
-                           d["nxt"], d["cand"], d["ncand"], d["cell_h"])
-            facet, xe, gap, nrm = _gaps(x, slaves, segs, d["g_rad"], d["cand"], d["ncand"], d["seg_open"])
-            # deeper than the capture depth: the node is past the facet's body (the explicit contact ignores it)
-            pick = np.nonzero((facet >= 0) & (gap < w) & (gap > -depth))[0]
-            if pick.size == 0:
-                raise SolverError(f"no contact candidate within {w * 1e6:.0f} um at theta = {th:.6f} rad")
-            res = _solve_position(x, X, n1, c2, R1, R2, slaves, segs, g_k * (np.array(scales)[:, None] / p_model),
-                                  facet, xe, gap, nrm, pick, stiffness, torques)
-            # a slave left out that the rigid approach alone would close: widen the window and redo
-            rest = np.setdiff1d(np.nonzero((facet >= 0) & (gap > -depth))[0], pick)
-            phi_max = max(r[1] for rs in res for r in rs)
-            if rest.size == 0 or np.all(gap[rest] - _approach(x, slaves, segs, facet, xe, nrm, rest, n1, c2) * phi_max
-                                        > 0):
-                break
-            w *= 2
-        else:
-            raise SolverError(f"contact window grew beyond {w * 1e6:.0f} um at theta = {th:.6f} rad")
-        for p, rs in zip(scales, res):
+        rows, nc, _ = sp3.solve(th, torques, scales)
+        for p, rs in zip(scales, rows):
             for tq, (f, phi) in zip(torques, rs):
                 te = rb2 * (phi - info["clearance_angle"])
-                out.append(StaticPoint3D(float(th), float(tq), float(te), int((f > 0).sum()), int(pick.size), p))
+                out.append(StaticPoint3D(float(th), float(tq), float(te), int((f > 0).sum()), nc, p))
                 log.info("theta %.5f rad, %g N m, penalty %g: TE %.3f um (%d of %d candidates loaded)", th, tq, p,
-                         te * 1e6, (f > 0).sum(), pick.size)
+                         te * 1e6, (f > 0).sum(), nc)
     return out
 
 
@@ -313,7 +386,7 @@ def _approach(x, slaves, segs, facet, xe, nrm, idx, n1, c2) -> np.ndarray:
     for k, i in enumerate(idx):
         s = slaves[i]
         if s < n1:   # slave on the input, facet on the output: the facet point moves
-            N = _shape_q4(xe[i, 0], xe[i, 1])
+            N = shape_q4(xe[i, 0], xe[i, 1])
             p = np.asarray(N) @ x[segs[facet[i]]]
             a[k] = nrm[i] @ np.cross(ez, p - c2)
         else:        # slave on the output: the node moves
@@ -321,35 +394,32 @@ def _approach(x, slaves, segs, facet, xe, nrm, idx, n1, c2) -> np.ndarray:
     return a
 
 
-def _solve_position(x, X, n1, c2, R1, R2, slaves, segs, g_k, facet, xe, gap, nrm, pick, stiffness, torques):
-    """Contact solves at one placement for every penalty (rows of ``g_k``) and torque: [[(forces, phi)]]."""
+def _system(x, X, n1, c2, R, slaves, segs, facet, xe, nrm, pick, stiffness):
+    """Loads ``P`` (per gear, its frame), responses ``U`` (free dofs x candidates), the candidates' relative
+    normal compliance ``C`` [m/N] and closure per output rotation ``a`` [m/rad] at one placement."""
     nc = pick.size
     n_nodes = X.shape[0]
     loads = [([], [], []), ([], [], [])]   # per gear: rows, cols, values in its own frame
-    R = (R1, R2)
     for c, i in enumerate(pick):
-        s = slaves[i]
-        N = np.asarray(_shape_q4(xe[i, 0], xe[i, 1]))
-        quad = segs[facet[i]]
-        nv = nrm[i]
-        for node, wgt in [(s, 1.0)] + [(q, -N[k]) for k, q in enumerate(quad)]:
+        N = np.asarray(shape_q4(xe[i, 0], xe[i, 1]))
+        for node, wgt in [(slaves[i], 1.0)] + [(q, -N[k]) for k, q in enumerate(segs[facet[i]])]:
             g = 0 if node < n1 else 1
-            local = R[g].T @ nv * wgt   # the load in the gear's start frame
-            base = 3 * (node - (0 if g == 0 else n1))
             rows, cols, vals = loads[g]
-            rows.extend(base + np.arange(3))
+            rows.extend(3 * (node - (0 if g == 0 else n1)) + np.arange(3))
             cols.extend([c] * 3)
-            vals.extend(local)
+            vals.extend(R[g].T @ nrm[i] * wgt)   # the load in the gear's start frame
     C = np.zeros((nc, nc))
+    Ps, Us = [], []
     for g, st in enumerate(stiffness):
         rows, cols, vals = loads[g]
         n_g = n1 if g == 0 else n_nodes - n1
         P = sp.csc_matrix((vals, (rows, cols)), shape=(3 * n_g, nc))
         U = st.response(P)
-        Pf = P[st.free]
-        C += (Pf.T @ U)
+        C += P[st.free].T @ U
+        Ps.append(P)
+        Us.append(U)
     C = 0.5 * (C + C.T)
     a = _approach(x, slaves, segs, facet, xe, nrm, pick, n1, c2)
     if np.median(a) <= 0:
         raise SolverError("the output's counter-clockwise rotation does not close the contact (flank sets reversed?)")
-    return [[solve_contact_lcp(C, a, gap[pick], float(tq), 1.0 / gk[facet[pick]]) for tq in torques] for gk in g_k]
+    return Ps, Us, C, a
