@@ -3,7 +3,7 @@
 Usage::
 
     python validation/run_static_gate_helical.py [--points 16] [--torques 60 120] [--layers 8]
-        [--outline-mm 0.3] [--body-mm 2.5] [--sector RAD] [--penalties 0.1 0.3 1 3 inf]
+        [--outline-mm 0.3] [--sag-um S] [--body-mm 2.5] [--sector RAD] [--penalties 0.1 0.3 1 3 inf]
 
 The explicit model is the helical references' kind (:func:`gearrom.fe.explicit.helicalpair.helical_pair_model`:
 transverse Q4 outline on the generated profile extruded in twisted Hex8 layers, fully integrated, two-pass
@@ -49,18 +49,19 @@ log = logging.getLogger("run_static_gate_helical")
 MODEL_PENALTY = 0.1   # the penalty scale the model is built with; every studied scale is solved from it
 
 
-def _tag(layers: int, outline: float, body: float, sector: float | None) -> str:
-    tag = f"layers{layers}_outline{outline * 1e3:g}mm_body{body * 1e3:g}mm"
+def _tag(layers: int, outline: float, body: float, sector: float | None, sag: float | None = None) -> str:
+    tag = f"layers{layers}_outline{outline * 1e3:g}mm" + (f"_sag{sag * 1e6:g}um" if sag else "") + f"_body{body * 1e3:g}mm"
     return tag + (f"_sector{sector:g}rad" if sector is not None else "_full")
 
 
 def main(n: int = 16, torques=(60.0, 120.0), layers: int = 8, outline: float = 0.3e-3, body: float = 2.5e-3,
-         grading: float = 1.0e-3, sector: float | None = None, penalties=(0.1, 0.3, 1.0, 3.0, math.inf)) -> Path:
+         grading: float = 1.0e-3, sector: float | None = None, penalties=(0.1, 0.3, 1.0, 3.0, math.inf),
+         sag: float | None = None) -> Path:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")   # the seed pair's tip-fillet interference warning (see helicalpair)
         pair = load_config("thesis-helical").pair
     period = 2 * math.pi / pair.z[0]
-    out = HERE / f"static_gate_helical_{_tag(layers, outline, body, sector)}.json"
+    out = HERE / f"static_gate_helical_{_tag(layers, outline, body, sector, sag)}.json"
     data = json.loads(out.read_text()) if out.is_file() else {}
     if data.get("n_points", n) != n:
         raise SystemExit(f"{out} holds points of {data['n_points']} angles per mesh period, not {n}: use "
@@ -69,6 +70,7 @@ def main(n: int = 16, torques=(60.0, 120.0), layers: int = 8, outline: float = 0
     keys = [f"{p:g}" for p in penalties]
     data.update(config="thesis-helical", integration="full", n_layers=layers, outline_size_mm=outline * 1e3,
                 body_size_mm=body * 1e3, grading_mm=grading * 1e3, sector_rad=sector, n_points=n,
+                outline_sag_um=None if sag is None else sag * 1e6,
                 solver="direct static solve of the explicit model (gearrom.fe.explicit.static3d)",
                 definition="static TE on the transverse line of action (explicit runs' convention: zero at rigid "
                            "first contact of the start position) at input angle j * mesh_period / n_points, "
@@ -78,7 +80,7 @@ def main(n: int = 16, torques=(60.0, 120.0), layers: int = 8, outline: float = 0
     upd_todo = [k for k in keys if k not in upd]
     if todo or upd_todo:
         t0 = time.perf_counter()
-        meshes = helical_meshes(pair, outline, body, grading)
+        meshes = helical_meshes(pair, outline, body, grading, sag=sag)
         setup = GearPairSetup(rpm_in=1e-4, torque_out=max(torques), penalty_scale=MODEL_PENALTY, integration="full")
         model, info = helical_pair_model(pair, meshes, setup, layers, run_angle=sector)
         X, hexes, n1 = np.asarray(model.nodes), np.asarray(model.elements), info["n_nodes_gear1"]
@@ -139,6 +141,8 @@ if __name__ == "__main__":
     ap.add_argument("--sector", type=float, default=None, help="cut each gear to the sector a run of this input "
                     "angle (rad) meets; default: whole bodies")
     ap.add_argument("--penalties", type=float, nargs="+", default=[0.1, 0.3, 1.0, 3.0, math.inf])
+    ap.add_argument("--sag-um", type=float, default=None, help="refine the flank outline to chords within this "
+                    "of the profile, um")
     a = ap.parse_args()
     main(a.points, tuple(a.torques), a.layers, a.outline_mm * 1e-3, a.body_mm * 1e-3, sector=a.sector,
-         penalties=tuple(a.penalties))
+         penalties=tuple(a.penalties), sag=None if a.sag_um is None else a.sag_um * 1e-6)
