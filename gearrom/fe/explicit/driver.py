@@ -38,12 +38,19 @@ def _element_of_segments(conn: np.ndarray, segs: np.ndarray) -> np.ndarray:
     return out
 
 
-def prepare(model: ExplicitModel, safety: float = 0.9, max_candidates: int = 8) -> dict:
-    """Precompute everything the loop needs (geometry, masses, colours, BC and contact arrays)."""
+def prepare(model: ExplicitModel, safety: float = 0.9, max_candidates: int | None = None) -> dict:
+    """Precompute everything the loop needs (geometry, masses, colours, BC and contact arrays).
+
+    ``max_candidates``: master segments kept per slave node by the contact search (default 8 in 2D, 32 in
+    3D: bilinear facets of twisted flanks are long axially, so the facet that holds a node's projection is
+    often not among the few nearest centroids, and a contact found only when deep blows the run up).
+    """
     if not 0 < safety <= 1:
         raise ConfigError(f"safety must be in (0, 1], got {safety}")
     X = model.nodes
     n, dim = X.shape
+    if max_candidates is None:
+        max_candidates = 8 if dim == 2 else 32
     mat = model.material
     lam, mu = mat.lame
     conn0 = model.elements
