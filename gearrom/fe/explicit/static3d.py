@@ -279,7 +279,7 @@ class StaticPair3D:
         return rows, int(pick.size), state
 
     def loaded_state(self, torque: float, penalty_scale: float | None = None, iterations: int = 8,
-                     tol: float = 1e-11):
+                     tol: float = 1e-9):
         """The loaded static state at the model's start position, as the explicit driver takes it.
 
         The linear solve takes the contact geometry of the rigid placement; the explicit contact acts on
