@@ -11,7 +11,8 @@ node-to-facet penalty contact), with whole gear bodies to the bores unless ``--s
 the sector a run of that input angle meets. Each point is a direct static solve of that model
 (:func:`gearrom.fe.explicit.static3d.static_te_3d`) at input angle ``j P / n`` from the start
 position, for every penalty scale on the same compliances (``inf``: hard contact, the penalty's limit), on
-the contact geometry of the rigid placement. ``geometry_update_at_start`` gives, per penalty scale, the
+the contact geometry of the rigid placement (``--geometry-update``: each on its deformed geometry, the
+explicit model's equilibrium). ``geometry_update_at_start`` gives, per penalty scale, the
 start position's TE re-solved on the deformed geometry (the explicit model's equilibrium,
 :meth:`~gearrom.fe.explicit.static3d.StaticPair3D.loaded_state`) beside the linear one.
 
@@ -56,12 +57,13 @@ def _tag(layers: int, outline: float, body: float, sector: float | None, sag: fl
 
 def main(n: int = 16, torques=(60.0, 120.0), layers: int = 8, outline: float = 0.3e-3, body: float = 2.5e-3,
          grading: float = 1.0e-3, sector: float | None = None, penalties=(0.1, 0.3, 1.0, 3.0, math.inf),
-         sag: float | None = None) -> Path:
+         sag: float | None = None, geometry_update: bool = False) -> Path:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")   # the seed pair's tip-fillet interference warning (see helicalpair)
         pair = load_config("thesis-helical").pair
     period = 2 * math.pi / pair.z[0]
-    out = HERE / f"static_gate_helical_{_tag(layers, outline, body, sector, sag)}.json"
+    out = HERE / (f"static_gate_helical_{_tag(layers, outline, body, sector, sag)}"
+                  + ("_updated" if geometry_update else "") + ".json")
     data = json.loads(out.read_text()) if out.is_file() else {}
     if data.get("n_points", n) != n:
         raise SystemExit(f"{out} holds points of {data['n_points']} angles per mesh period, not {n}: use "
@@ -70,7 +72,7 @@ def main(n: int = 16, torques=(60.0, 120.0), layers: int = 8, outline: float = 0
     keys = [f"{p:g}" for p in penalties]
     data.update(config="thesis-helical", integration="full", n_layers=layers, outline_size_mm=outline * 1e3,
                 body_size_mm=body * 1e3, grading_mm=grading * 1e3, sector_rad=sector, n_points=n,
-                outline_sag_um=None if sag is None else sag * 1e6,
+                outline_sag_um=None if sag is None else sag * 1e6, geometry_update=geometry_update,
                 solver="direct static solve of the explicit model (gearrom.fe.explicit.static3d)",
                 definition="static TE on the transverse line of action (explicit runs' convention: zero at rigid "
                            "first contact of the start position) at input angle j * mesh_period / n_points, "
@@ -92,7 +94,8 @@ def main(n: int = 16, torques=(60.0, 120.0), layers: int = 8, outline: float = 0
                     layer_mm=info["layer_m"] * 1e3, model_build_s=time.perf_counter() - t0)
         for j in todo:
             t1 = time.perf_counter()
-            res = static_te_3d(model, info, pair, [j * period / n], torques, penalties, stiffness=stiff)
+            res = static_te_3d(model, info, pair, [j * period / n], torques, penalties, stiffness=stiff,
+                               geometry_update=geometry_update)
             pts[str(j)] = {f"{p.penalty_scale:g}/{p.torque:g}": p.te * 1e6 for p in res}
             pts[str(j)]["n_loaded"] = {f"{p.penalty_scale:g}/{p.torque:g}": p.n_loaded for p in res}
             pts[str(j)]["solve_s"] = time.perf_counter() - t1
@@ -143,6 +146,9 @@ if __name__ == "__main__":
     ap.add_argument("--penalties", type=float, nargs="+", default=[0.1, 0.3, 1.0, 3.0, math.inf])
     ap.add_argument("--sag-um", type=float, default=None, help="refine the flank outline to chords within this "
                     "of the profile, um")
+    ap.add_argument("--geometry-update", action="store_true", help="solve every point on its deformed contact "
+                    "geometry (the explicit model's equilibrium; about 3 times the time); writes *_updated.json")
     a = ap.parse_args()
     main(a.points, tuple(a.torques), a.layers, a.outline_mm * 1e-3, a.body_mm * 1e-3, sector=a.sector,
-         penalties=tuple(a.penalties), sag=None if a.sag_um is None else a.sag_um * 1e-6)
+         penalties=tuple(a.penalties), sag=None if a.sag_um is None else a.sag_um * 1e-6,
+         geometry_update=a.geometry_update)

@@ -248,7 +248,8 @@ class StaticPair3D:
         slaves, segs = d["slaves"], d["segs"]
         scales = self._scales(penalty_scales)
         s1 = math.copysign(1.0, self.info["omega_in"])
-        R1, R2 = _rot_z(s1 * theta), _rot_z(-s1 * theta * self.pair.z[0] / self.pair.z[1])
+        rot = (s1 * theta, -s1 * theta * self.pair.z[0] / self.pair.z[1])
+        R1, R2 = _rot_z(rot[0]), _rot_z(rot[1])
         x = np.empty_like(X)
         x[:n1] = X[:n1] @ R1.T
         x[n1:] = (X[n1:] - c2) @ R2.T + c2
@@ -275,19 +276,61 @@ class StaticPair3D:
             w *= 2
         else:
             raise SolverError(f"contact window grew beyond {w * 1e6:.0f} um at theta = {theta:.6f} rad")
-        state = dict(P=P, U=U, R=(R1, R2), x=x) if keep_state else None
+        state = dict(P=P, U=U, rot=rot, x=x) if keep_state else None
         return rows, int(pick.size), state
+
+    def equilibrium(self, theta: float, torque: float, penalty_scale: float | None = None, iterations: int = 8,
+                    tol: float = 1e-9):
+        """The static state at input angle ``theta`` [rad] on the deformed contact geometry.
+
+        The linear solve (:meth:`solve`) takes the contact geometry of the rigid placement; the explicit
+        contact acts on the deformed one (facets turned with the output's rotation, points slid along them).
+        So the state is re-solved on the current geometry: with the candidates' gaps, normals and facet
+        points found at the deformed positions and the elastic field's own normal opening removed from the
+        gaps, the forces and the output's further rotation follow from the same complementarity problem;
+        repeated until the rotation changes by less than ``tol`` on the line of action [m].
+
+        Returns
+        -------
+        u_el : list of two ndarrays
+            Elastic displacements of each gear's free dofs in its start frame, m.
+        phi : float
+            The output's rotation beyond the rigid placement, rad.
+        rot : tuple of float
+            The rigid placement's turn of each gear, rad.
+        n_loaded : int
+            Loaded contact nodes.
+        """
+        scales = self._scales(None if penalty_scale is None else [penalty_scale])
+        rows, _, st = self.solve(theta, [torque], scales, keep_state=True)
+        f, phi = rows[0][0]
+        X, n1, c2, d = self.X, self.n1, self.c2, self.d
+        slaves, segs = d["slaves"], d["segs"]
+        g_k = d["g_k"] * (scales[0] / self.p_model)
+        rot = st["rot"]
+        u_el = [U @ f for U in st["U"]]           # elastic fields (free dofs) in the gears' frames
+        for it in range(iterations):
+            x = X + self._displacements(u_el, phi, rot)
+            contact_search(x, slaves, d["s_pair"], segs, d["g_pair"], d["g_rad"], d["margin"] + self.window,
+                           d["head"], d["nxt"], d["cand"], d["ncand"], d["cell_h"])
+            facet, xe, gap, nrm = nearest_facets_3d(x, slaves, segs, d["g_rad"], d["cand"], d["ncand"], d["seg_open"])
+            pick = np.nonzero((facet >= 0) & (gap > -self.depth) & (gap < self.window))[0]
+            R = (_rot_z(rot[0]), _rot_z(rot[1] + phi))
+            P, U, C, a = _system(x, X, n1, c2, R, slaves, segs, facet, xe, nrm, pick, self.stiffness)
+            opening = sum(Pg[stf.free].T @ ue for Pg, stf, ue in zip(P, self.stiffness, u_el))
+            f, dphi = solve_contact_lcp(C, a, gap[pick] - opening, float(torque), 1.0 / g_k[facet[pick]])
+            phi += dphi
+            u_el = [Ug @ f for Ug in U]
+            log.info("static state at theta %.5f rad, geometry update %d: output turned by %.3g um more on the "
+                     "line of action", theta, it + 1, dphi * self.pair.rb[1] * 1e6)
+            if abs(dphi) * self.pair.rb[1] < tol:
+                break
+        return u_el, float(phi), rot, int((f > 0).sum())
 
     def loaded_state(self, torque: float, penalty_scale: float | None = None, iterations: int = 8,
                      tol: float = 1e-9):
-        """The loaded static state at the model's start position, as the explicit driver takes it.
-
-        The linear solve takes the contact geometry of the rigid placement; the explicit contact acts on
-        the deformed one (facets turned with the output's rotation, points slid along them). So the state
-        is re-solved on the current geometry: with the candidates' gaps, normals and facet points found
-        at the deformed positions and the elastic field's own normal opening removed from the gaps, the
-        forces and the output's further rotation follow from the same complementarity problem; repeated
-        until the rotation changes by less than ``tol`` on the line of action [m].
+        """The loaded static state at the model's start position (:meth:`equilibrium` at ``theta = 0``), as
+        the explicit driver takes it.
 
         Returns
         -------
@@ -299,37 +342,15 @@ class StaticPair3D:
         te : float
             The state's TE, m.
         """
-        scales = self._scales(None if penalty_scale is None else [penalty_scale])
-        rows, _, st = self.solve(0.0, [torque], scales, keep_state=True)
-        f, phi = rows[0][0]
-        X, n1, c2, d = self.X, self.n1, self.c2, self.d
-        slaves, segs = d["slaves"], d["segs"]
-        g_k = d["g_k"] * (scales[0] / self.p_model)
-        u_el = [U @ f for U in st["U"]]           # elastic fields (free dofs) in the gears' frames
-        for it in range(iterations):
-            u = self._displacements(u_el, phi)
-            x = X + u
-            contact_search(x, slaves, d["s_pair"], segs, d["g_pair"], d["g_rad"], d["margin"] + self.window,
-                           d["head"], d["nxt"], d["cand"], d["ncand"], d["cell_h"])
-            facet, xe, gap, nrm = nearest_facets_3d(x, slaves, segs, d["g_rad"], d["cand"], d["ncand"], d["seg_open"])
-            pick = np.nonzero((facet >= 0) & (gap > -self.depth) & (gap < self.window))[0]
-            R = (np.eye(3), _rot_z(phi))
-            P, U, C, a = _system(x, X, n1, c2, R, slaves, segs, facet, xe, nrm, pick, self.stiffness)
-            opening = sum(Pg[stf.free].T @ ue for Pg, stf, ue in zip(P, self.stiffness, u_el))
-            f, dphi = solve_contact_lcp(C, a, gap[pick] - opening, float(torque), 1.0 / g_k[facet[pick]])
-            phi += dphi
-            u_el = [Ug @ f for Ug in U]
-            log.info("loaded state, geometry update %d: output turned by %.3g um more on the line of action",
-                     it + 1, dphi * self.pair.rb[1] * 1e6)
-            if abs(dphi) * self.pair.rb[1] < tol:
-                break
-        u = self._displacements(u_el, phi)
+        u_el, phi, rot, _ = self.equilibrium(0.0, torque, penalty_scale, iterations, tol)
+        u = self._displacements(u_el, phi, rot)
         te = self.pair.rb[1] * (phi - self.info["clearance_angle"])
         return u, np.array([0.0, phi]), float(te)
 
-    def _displacements(self, u_el, phi: float) -> np.ndarray:
-        """Nodal displacements [m] of the start-position model: the elastic fields (free dofs of each gear's
-        frame), the output's turned with its rigid rotation ``phi`` about its centre."""
+    def _displacements(self, u_el, phi: float, rot=(0.0, 0.0)) -> np.ndarray:
+        """Nodal displacements [m] from the model's nodes: each gear turned rigidly by its placement ``rot``
+        [rad] with its elastic field (free dofs of its start frame), the output further by ``phi`` about
+        its centre."""
         X, n1, c2 = self.X, self.n1, self.c2
         u = np.zeros_like(X)
         for g, (stf, ue_free) in enumerate(zip(self.stiffness, u_el)):
@@ -337,14 +358,15 @@ class StaticPair3D:
             ue[stf.free] = ue_free
             ue = ue.reshape(-1, 3)
             if g == 0:
-                u[:n1] = ue
+                u[:n1] = (X[:n1] + ue) @ _rot_z(rot[0]).T - X[:n1]
             else:
-                u[n1:] = (X[n1:] - c2 + ue) @ _rot_z(phi).T + c2 - X[n1:]
+                u[n1:] = (X[n1:] - c2 + ue) @ _rot_z(rot[1] + phi).T + c2 - X[n1:]
         return u
 
 
 def static_te_3d(model, info: dict, pair, thetas, torques, penalty_scales=None, window: float = 40e-6,
-                 stiffness: tuple[GearStiffness, GearStiffness] | None = None) -> list[StaticPoint3D]:
+                 stiffness: tuple[GearStiffness, GearStiffness] | None = None,
+                 geometry_update: bool = False) -> list[StaticPoint3D]:
     """Static TE of a 3D explicit helical model at input angles ``thetas`` [rad] and output torques [N m].
 
     Parameters
@@ -359,6 +381,10 @@ def static_te_3d(model, info: dict, pair, thetas, torques, penalty_scales=None, 
         Contact penalty scales to solve with (``ContactPair.penalty_scale``: the explicit penalty ``k`` in
         proportion; ``math.inf``: hard contact, the penalty's limit), each on the same compliances.
         Default: the model's own.
+    geometry_update : bool
+        Re-solve every point on its deformed contact geometry (:meth:`StaticPair3D.equilibrium`, the
+        explicit model's own equilibrium; two or three more solves per point, penalty and torque) instead
+        of the linear solve on the rigid placement's geometry.
 
     Returns
     -------
@@ -372,10 +398,13 @@ def static_te_3d(model, info: dict, pair, thetas, torques, penalty_scales=None, 
         rows, nc, _ = sp3.solve(th, torques, scales)
         for p, rs in zip(scales, rows):
             for tq, (f, phi) in zip(torques, rs):
+                n_loaded = int((f > 0).sum())
+                if geometry_update:
+                    _, phi, _, n_loaded = sp3.equilibrium(th, tq, p)
                 te = rb2 * (phi - info["clearance_angle"])
-                out.append(StaticPoint3D(float(th), float(tq), float(te), int((f > 0).sum()), nc, p))
+                out.append(StaticPoint3D(float(th), float(tq), float(te), n_loaded, nc, p))
                 log.info("theta %.5f rad, %g N m, penalty %g: TE %.3f um (%d of %d candidates loaded)", th, tq, p,
-                         te * 1e6, (f > 0).sum(), nc)
+                         te * 1e6, n_loaded, nc)
     return out
 
 
