@@ -9,7 +9,7 @@ The explicit model is the helical references' kind (:func:`gearrom.fe.explicit.h
 transverse Q4 outline on the generated profile extruded in twisted Hex8 layers, fully integrated, two-pass
 node-to-facet penalty contact), with whole gear bodies to the bores unless ``--sector`` cuts each gear to
 the sector a run of that input angle meets. Each point is a direct static solve of that model
-(:func:`gearrom.fe.explicit.static3d.static_te_3d`) at input angle ``j P / n`` from the start
+(:meth:`gearrom.fe.explicit.static3d.StaticPair3D.points`) at input angle ``j P / n`` from the start
 position, for every penalty scale on the same compliances (``inf``: hard contact, the penalty's limit), on
 the contact geometry of the rigid placement (``--geometry-update``: each on its deformed geometry, the
 explicit model's equilibrium). ``geometry_update_at_start`` gives, per penalty scale, the
@@ -41,7 +41,7 @@ import numpy as np
 from gearrom.config import load_config
 from gearrom.fe.explicit.gearpair import GearPairSetup
 from gearrom.fe.explicit.helicalpair import helical_meshes, helical_pair_model
-from gearrom.fe.explicit.static3d import GearStiffness, StaticPair3D, static_te_3d
+from gearrom.fe.explicit.static3d import StaticPair3D
 from gearrom.validation.pair_rom import fe_start_mesh_phase, mesh_excitation
 from gearrom.validation.static_gate import static_gate
 
@@ -51,7 +51,8 @@ MODEL_PENALTY = 0.1   # the penalty scale the model is built with; every studied
 
 
 def _tag(layers: int, outline: float, body: float, sector: float | None, sag: float | None = None) -> str:
-    tag = f"layers{layers}_outline{outline * 1e3:g}mm" + (f"_sag{sag * 1e6:g}um" if sag else "") + f"_body{body * 1e3:g}mm"
+    tag = (f"layers{layers}_outline{outline * 1e3:g}mm" + (f"_sag{sag * 1e6:g}um" if sag else "")
+           + f"_body{body * 1e3:g}mm")
     return tag + (f"_sector{sector:g}rad" if sector is not None else "_full")
 
 
@@ -85,17 +86,13 @@ def main(n: int = 16, torques=(60.0, 120.0), layers: int = 8, outline: float = 0
         meshes = helical_meshes(pair, outline, body, grading, sag=sag)
         setup = GearPairSetup(rpm_in=1e-4, torque_out=max(torques), penalty_scale=MODEL_PENALTY, integration="full")
         model, info = helical_pair_model(pair, meshes, setup, layers, run_angle=sector)
-        X, hexes, n1 = np.asarray(model.nodes), np.asarray(model.elements), info["n_nodes_gear1"]
-        lam, mu = model.material.lame
-        stiff = (GearStiffness(X[:n1], hexes[(hexes < n1).all(1)], model.node_sets["bore_1"], lam, mu),
-                 GearStiffness(X[n1:], hexes[(hexes >= n1).all(1)] - n1, model.node_sets["bore_2"] - n1, lam, mu))
-        data.update(n_nodes=int(X.shape[0]), n_elements=int(hexes.shape[0]),
-                    n_free_dofs=[s.n_dofs for s in stiff], twist_sag_um=info["twist_sag_m"] * 1e6,
+        sp3 = StaticPair3D(model, info, pair)
+        data.update(n_nodes=int(model.nodes.shape[0]), n_elements=int(model.elements.shape[0]),
+                    n_free_dofs=[s.n_dofs for s in sp3.stiffness], twist_sag_um=info["twist_sag_m"] * 1e6,
                     layer_mm=info["layer_m"] * 1e3, model_build_s=time.perf_counter() - t0)
         for j in todo:
             t1 = time.perf_counter()
-            res = static_te_3d(model, info, pair, [j * period / n], torques, penalties, stiffness=stiff,
-                               geometry_update=geometry_update)
+            res = sp3.points([j * period / n], torques, penalties, geometry_update)
             pts[str(j)] = {f"{p.penalty_scale:g}/{p.torque:g}": p.te * 1e6 for p in res}
             pts[str(j)]["n_loaded"] = {f"{p.penalty_scale:g}/{p.torque:g}": p.n_loaded for p in res}
             pts[str(j)]["solve_s"] = time.perf_counter() - t1
@@ -103,7 +100,6 @@ def main(n: int = 16, torques=(60.0, 120.0), layers: int = 8, outline: float = 0
             log.info("point %d/%d done in %.0f s", j + 1, n, time.perf_counter() - t1)
         # the points solve on the rigid placement's contact geometry; at the start position the state is also
         # re-solved on the deformed geometry (as the explicit contact acts), at the highest torque
-        sp3 = StaticPair3D(model, info, pair, stiff)
         for k, p in zip(keys, penalties):
             if k in upd:
                 continue

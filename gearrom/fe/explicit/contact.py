@@ -388,14 +388,8 @@ def nearest_facets_3d(x, slaves, segs, g_rad, cand, ncand, seg_open):
 @njit(cache=True)
 def signed_gaps_3d(x, slaves, segs, g_rad, cand, ncand, seg_open):
     """Signed gap of every slave node (m; NaN without a master feature in reach), as the 3D contact sees it."""
-    out = np.full(slaves.shape[0], np.nan)
-    lbs = np.empty(cand.shape[1])
-    order = np.empty(cand.shape[1], np.int64)
-    for i in range(slaves.shape[0]):
-        best, bxi, beta, g, a, b, c = _signed_gap_3d(x, segs, g_rad, seg_open, cand, ncand, i, slaves[i], lbs, order)
-        if best >= 0:
-            out[i] = g
-    return out
+    facet, _, gap, _ = nearest_facets_3d(x, slaves, segs, g_rad, cand, ncand, seg_open)
+    return np.where(facet >= 0, gap, np.nan)
 
 
 @njit(cache=True)

@@ -352,6 +352,27 @@ def loaded_model(model: ExplicitModel, info: dict, setup: GearPairSetup, relaxed
     return dataclasses.replace(model, references=refs, initial_displacement=u, initial_velocity=v)
 
 
+def stored_start_state(checkpoint, suffix: str, value_key: str, shape, torque: float, compute):
+    """A run's start state ``(u, theta, value)``, kept next to its checkpoint as ``<checkpoint><suffix>``.
+
+    A stored state is reused when its displacement shape and torque match the run; otherwise
+    ``compute()`` makes it and, with a checkpoint, it is stored (atomically; ``value`` under
+    ``value_key``).
+    """
+    store = None if checkpoint is None else Path(str(checkpoint) + suffix)
+    if store is not None and store.is_file():
+        with np.load(store) as z:
+            if z["u"].shape == shape and float(z["torque"]) == torque:
+                return z["u"].copy(), z["theta"].copy(), float(z[value_key])
+    state = compute()
+    if store is not None:
+        from gearrom.fe.cache import atomic_path
+
+        with atomic_path(store) as tmp:
+            np.savez(tmp, u=state[0], theta=state[1], torque=torque, **{value_key: state[2]})
+    return state
+
+
 def run_gear_pair(pair, meshes, setup: GearPairSetup, t_end: float, sample_period: float,
                   **solve_kw) -> tuple[ExplicitResult, np.ndarray, dict]:
     """Build and run the pair; return (result, TE history in m, info).
@@ -361,19 +382,8 @@ def run_gear_pair(pair, meshes, setup: GearPairSetup, t_end: float, sample_perio
     """
     model, info = gear_pair_model(pair, meshes, setup)
     if setup.start == "loaded":
-        relaxed = None
-        ck = solve_kw.get("checkpoint")
-        store = None if ck is None else Path(str(ck) + ".relaxed.npz")
-        if store is not None and store.is_file():
-            with np.load(store) as z:
-                if z["u"].shape == model.nodes.shape and float(z["torque"]) == setup.torque_out:
-                    relaxed = (z["u"].copy(), z["theta"].copy(), float(z["ptp"]))
-        if relaxed is None:
-            relaxed = relaxed_state(model, setup.torque_out)
-            if store is not None:
-                from gearrom.fe.cache import atomic_path
-                with atomic_path(store) as tmp:
-                    np.savez(tmp, u=relaxed[0], theta=relaxed[1], ptp=relaxed[2], torque=setup.torque_out)
+        relaxed = stored_start_state(solve_kw.get("checkpoint"), ".relaxed.npz", "ptp", model.nodes.shape,
+                                     setup.torque_out, lambda: relaxed_state(model, setup.torque_out))
         log.info("loaded start: static TE %.3f um, residual %.2e rad",
                  (info["rb"][0] * relaxed[1][0] + info["rb"][1] * (relaxed[1][1] - info["clearance_angle"])) * 1e6,
                  relaxed[2])

@@ -483,9 +483,11 @@ def run_helical_pair(pair, meshes, setup: GearPairSetup, t_end: float, sample_pe
     run_angle = setup.rpm_in * 2 * math.pi / 60 * t_end if sector else None
     model, info = helical_pair_model(pair, meshes, setup, n_layers, run_angle=run_angle, stagger=stagger)
     if setup.start == "loaded":
-        from gearrom.fe.explicit.gearpair import loaded_model
+        from gearrom.fe.explicit.gearpair import loaded_model, stored_start_state
+        from gearrom.fe.explicit.static3d import StaticPair3D
 
-        state = _loaded_state(model, info, pair, setup.torque_out, solve_kw.get("checkpoint"))
+        state = stored_start_state(solve_kw.get("checkpoint"), ".loaded.npz", "te", model.nodes.shape, setup.torque_out,
+                                   lambda: StaticPair3D(model, info, pair).loaded_state(setup.torque_out))
         log.info("loaded start: static TE %.3f um (direct static solve)", state[2] * 1e6)
         model = loaded_model(model, info, setup, (state[0], state[1], 0.0))
         info = dict(info, loaded_te_m=state[2])
@@ -497,23 +499,3 @@ def run_helical_pair(pair, meshes, setup: GearPairSetup, t_end: float, sample_pe
                     n_layers=n_layers, layer_m=info["layer_m"], max_candidates=max_candidates,
                     removed_inertia_kgm2=info["removed_inertia_kgm2"])
     return res, te, info
-
-
-def _loaded_state(model, info, pair, torque: float, checkpoint=None):
-    """(u, theta, te) of the loaded start, from ``<checkpoint>.loaded.npz`` when it matches the model."""
-    from pathlib import Path
-
-    from gearrom.fe.explicit.static3d import StaticPair3D
-
-    store = None if checkpoint is None else Path(str(checkpoint) + ".loaded.npz")
-    if store is not None and store.is_file():
-        with np.load(store) as z:
-            if z["u"].shape == model.nodes.shape and float(z["torque"]) == torque:
-                return z["u"].copy(), z["theta"].copy(), float(z["te"])
-    u, theta, te = StaticPair3D(model, info, pair).loaded_state(torque)
-    if store is not None:
-        from gearrom.fe.cache import atomic_path
-
-        with atomic_path(store) as tmp:
-            np.savez(tmp, u=u, theta=theta, te=te, torque=torque)
-    return u, theta, te

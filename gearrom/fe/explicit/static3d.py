@@ -97,8 +97,6 @@ class GearStiffness:
         used[np.unique(hexes)] = True
         fixed |= np.repeat(~used, 3)   # nodes of no element (none in a gear mesh; kept safe)
         self.free = np.nonzero(~fixed)[0]
-        self.index = np.full(3 * n, -1, np.int64)
-        self.index[self.free] = np.arange(self.free.size)
         Kf = K[self.free][:, self.free]
         self.n_dofs = int(self.free.size)
         try:   # MKL PARDISO (optional): a multi-threaded Cholesky whose many-column solves are BLAS 3
@@ -116,9 +114,20 @@ class GearStiffness:
         log.info("Hex8 stiffness: %d free dofs, assembled and factorized in %.1f s (%s)", self.n_dofs,
                  time.perf_counter() - t0, backend)
 
-    def response(self, loads: sp.csc_matrix) -> np.ndarray:
-        """Displacements (free dofs x load cases) under nodal ``loads`` (all dofs x load cases, gear frame)."""
-        rhs = np.asarray(loads[self.free].toarray(), float)
+    @classmethod
+    def of_model(cls, model, n1: int) -> tuple[GearStiffness, GearStiffness]:
+        """Both gears of a two-gear explicit model whose first ``n1`` nodes are the input's, bores
+        ``bore_1`` / ``bore_2`` clamped."""
+        X = np.asarray(model.nodes, float)
+        hexes = np.asarray(model.elements, np.int64)
+        lam, mu = model.material.lame
+        return (cls(X[:n1], hexes[(hexes < n1).all(1)], model.node_sets["bore_1"], lam, mu),
+                cls(X[n1:], hexes[(hexes >= n1).all(1)] - n1, model.node_sets["bore_2"] - n1, lam, mu))
+
+    def response(self, loads: sp.spmatrix) -> np.ndarray:
+        """Displacements (free dofs x load cases) under nodal ``loads`` on the free dofs (free dofs x load
+        cases, gear frame)."""
+        rhs = np.asarray(loads.toarray(), float)
         if self._pardiso is not None:
             return self._pardiso.solve(self._upper, rhs).reshape(rhs.shape)
         return self.lu.solve(rhs)
@@ -219,15 +228,9 @@ class StaticPair3D:
 
         self.model, self.info, self.pair, self.window = model, info, pair, window
         self.X = np.asarray(model.nodes, float)
-        hexes = np.asarray(model.elements, np.int64)
-        self.n1 = n1 = int(info["n_nodes_gear1"])
-        lam, mu = model.material.lame
+        self.n1 = int(info["n_nodes_gear1"])
         self.c2 = np.array([pair.aw, 0.0, 0.0])
-        if stiffness is None:
-            stiffness = (GearStiffness(self.X[:n1], hexes[(hexes < n1).all(1)], model.node_sets["bore_1"], lam, mu),
-                         GearStiffness(self.X[n1:], hexes[(hexes >= n1).all(1)] - n1, model.node_sets["bore_2"] - n1,
-                                       lam, mu))
-        self.stiffness = stiffness
+        self.stiffness = stiffness if stiffness is not None else GearStiffness.of_model(model, self.n1)
         self.d = prepare(model, 0.9, 32)
         self.depth = self.d["p_depth"][self.d["s_pair"]]
         self.p_model = float(model.contacts[0].penalty_scale)
@@ -242,29 +245,23 @@ class StaticPair3D:
         """Contact solves at input angle ``theta`` [rad] for every penalty scale and torque.
 
         Returns ``(rows, n_candidates, state)``: ``rows[p][t] = (forces, phi)``; ``state`` (with
-        ``keep_state``) holds what :meth:`loaded_state` needs.
+        ``keep_state``) holds what :meth:`equilibrium` starts from.
         """
-        X, n1, c2, d = self.X, self.n1, self.c2, self.d
+        n1, c2, d = self.n1, self.c2, self.d
         slaves, segs = d["slaves"], d["segs"]
         scales = self._scales(penalty_scales)
         s1 = math.copysign(1.0, self.info["omega_in"])
         rot = (s1 * theta, -s1 * theta * self.pair.z[0] / self.pair.z[1])
-        R1, R2 = _rot_z(rot[0]), _rot_z(rot[1])
-        x = np.empty_like(X)
-        x[:n1] = X[:n1] @ R1.T
-        x[n1:] = (X[n1:] - c2) @ R2.T + c2
+        x = self._positions(rot)
         g_k = d["g_k"] * (np.array(scales)[:, None] / self.p_model)
         w = self.window
         for _attempt in range(4):
-            contact_search(x, slaves, d["s_pair"], segs, d["g_pair"], d["g_rad"], d["margin"] + w, d["head"],
-                           d["nxt"], d["cand"], d["ncand"], d["cell_h"])
-            facet, xe, gap, nrm = nearest_facets_3d(x, slaves, segs, d["g_rad"], d["cand"], d["ncand"], d["seg_open"])
-            # deeper than the capture depth: the node is past the facet's body (the explicit contact ignores it)
-            reach = (facet >= 0) & (gap > -self.depth)
+            facet, xe, gap, nrm, reach = self._nearest(x, w)
             pick = np.nonzero(reach & (gap < w))[0]
             if pick.size == 0:
                 raise SolverError(f"no contact candidate within {w * 1e6:.0f} um at theta = {theta:.6f} rad")
-            P, U, C, a = _system(x, X, n1, c2, (R1, R2), slaves, segs, facet, xe, nrm, pick, self.stiffness)
+            _, U, C, a = _system(x, n1, c2, (_rot_z(rot[0]), _rot_z(rot[1])), slaves, segs, facet, xe, nrm, pick,
+                                 self.stiffness)
             rows = [[solve_contact_lcp(C, a, gap[pick], float(tq), 1.0 / gk[facet[pick]]) for tq in torques]
                     for gk in g_k]
             # a slave left out that the rigid approach alone would close: widen the window and redo
@@ -276,11 +273,33 @@ class StaticPair3D:
             w *= 2
         else:
             raise SolverError(f"contact window grew beyond {w * 1e6:.0f} um at theta = {theta:.6f} rad")
-        state = dict(P=P, U=U, rot=rot, x=x) if keep_state else None
+        state = dict(U=U, rot=rot) if keep_state else None
         return rows, int(pick.size), state
 
+    def _positions(self, rot, u_el=None, phi: float = 0.0) -> np.ndarray:
+        """Node positions [m]: each gear turned rigidly by its placement ``rot`` [rad] with its elastic field
+        ``u_el`` (free dofs of its start frame; none: rigid), the output further by ``phi`` about its centre."""
+        X, n1, c2 = self.X, self.n1, self.c2
+        body = [X[:n1].copy(), X[n1:] - c2]
+        if u_el is not None:
+            for g, (stf, ue) in enumerate(zip(self.stiffness, u_el)):
+                flat = body[g].reshape(-1)
+                flat[stf.free] += ue
+        return np.vstack([body[0] @ _rot_z(rot[0]).T, body[1] @ _rot_z(rot[1] + phi).T + c2])
+
+    def _nearest(self, x: np.ndarray, window: float):
+        """Nearest master feature of every slave at positions ``x`` (:func:`nearest_facets_3d`, search reach
+        ``window`` beyond the contact margin) and the slaves in reach: a facet found, not deeper than the
+        capture depth (past the facet's body; the explicit contact ignores those)."""
+        d = self.d
+        contact_search(x, d["slaves"], d["s_pair"], d["segs"], d["g_pair"], d["g_rad"], d["margin"] + window,
+                       d["head"], d["nxt"], d["cand"], d["ncand"], d["cell_h"])
+        facet, xe, gap, nrm = nearest_facets_3d(x, d["slaves"], d["segs"], d["g_rad"], d["cand"], d["ncand"],
+                                                d["seg_open"])
+        return facet, xe, gap, nrm, (facet >= 0) & (gap > -self.depth)
+
     def equilibrium(self, theta: float, torque: float, penalty_scale: float | None = None, iterations: int = 8,
-                    tol: float = 1e-9):
+                    tol: float = 1e-9, linear=None):
         """The static state at input angle ``theta`` [rad] on the deformed contact geometry.
 
         The linear solve (:meth:`solve`) takes the contact geometry of the rigid placement; the explicit
@@ -288,7 +307,9 @@ class StaticPair3D:
         So the state is re-solved on the current geometry: with the candidates' gaps, normals and facet
         points found at the deformed positions and the elastic field's own normal opening removed from the
         gaps, the forces and the output's further rotation follow from the same complementarity problem;
-        repeated until the rotation changes by less than ``tol`` on the line of action [m].
+        repeated until the rotation changes by less than ``tol`` on the line of action [m]. ``linear``:
+        ``(forces, phi, state)`` of an earlier :meth:`solve` at ``theta`` with ``keep_state`` for this
+        torque and penalty scale (solved here when omitted).
 
         Returns
         -------
@@ -302,22 +323,21 @@ class StaticPair3D:
             Loaded contact nodes.
         """
         scales = self._scales(None if penalty_scale is None else [penalty_scale])
-        rows, _, st = self.solve(theta, [torque], scales, keep_state=True)
-        f, phi = rows[0][0]
-        X, n1, c2, d = self.X, self.n1, self.c2, self.d
-        slaves, segs = d["slaves"], d["segs"]
+        if linear is None:
+            rows, _, st = self.solve(theta, [torque], scales, keep_state=True)
+            linear = (*rows[0][0], st)
+        f, phi, st = linear
+        n1, c2, d = self.n1, self.c2, self.d
         g_k = d["g_k"] * (scales[0] / self.p_model)
         rot = st["rot"]
         u_el = [U @ f for U in st["U"]]           # elastic fields (free dofs) in the gears' frames
         for it in range(iterations):
-            x = X + self._displacements(u_el, phi, rot)
-            contact_search(x, slaves, d["s_pair"], segs, d["g_pair"], d["g_rad"], d["margin"] + self.window,
-                           d["head"], d["nxt"], d["cand"], d["ncand"], d["cell_h"])
-            facet, xe, gap, nrm = nearest_facets_3d(x, slaves, segs, d["g_rad"], d["cand"], d["ncand"], d["seg_open"])
-            pick = np.nonzero((facet >= 0) & (gap > -self.depth) & (gap < self.window))[0]
+            x = self._positions(rot, u_el, phi)
+            facet, xe, gap, nrm, reach = self._nearest(x, self.window)
+            pick = np.nonzero(reach & (gap < self.window))[0]
             R = (_rot_z(rot[0]), _rot_z(rot[1] + phi))
-            P, U, C, a = _system(x, X, n1, c2, R, slaves, segs, facet, xe, nrm, pick, self.stiffness)
-            opening = sum(Pg[stf.free].T @ ue for Pg, stf, ue in zip(P, self.stiffness, u_el))
+            P, U, C, a = _system(x, n1, c2, R, d["slaves"], d["segs"], facet, xe, nrm, pick, self.stiffness)
+            opening = sum(Pg.T @ ue for Pg, ue in zip(P, u_el))
             f, dphi = solve_contact_lcp(C, a, gap[pick] - opening, float(torque), 1.0 / g_k[facet[pick]])
             phi += dphi
             u_el = [Ug @ f for Ug in U]
@@ -343,25 +363,28 @@ class StaticPair3D:
             The state's TE, m.
         """
         u_el, phi, rot, _ = self.equilibrium(0.0, torque, penalty_scale, iterations, tol)
-        u = self._displacements(u_el, phi, rot)
+        u = self._positions(rot, u_el, phi) - self.X
         te = self.pair.rb[1] * (phi - self.info["clearance_angle"])
         return u, np.array([0.0, phi]), float(te)
 
-    def _displacements(self, u_el, phi: float, rot=(0.0, 0.0)) -> np.ndarray:
-        """Nodal displacements [m] from the model's nodes: each gear turned rigidly by its placement ``rot``
-        [rad] with its elastic field (free dofs of its start frame), the output further by ``phi`` about
-        its centre."""
-        X, n1, c2 = self.X, self.n1, self.c2
-        u = np.zeros_like(X)
-        for g, (stf, ue_free) in enumerate(zip(self.stiffness, u_el)):
-            ue = np.zeros(3 * (n1 if g == 0 else X.shape[0] - n1))
-            ue[stf.free] = ue_free
-            ue = ue.reshape(-1, 3)
-            if g == 0:
-                u[:n1] = (X[:n1] + ue) @ _rot_z(rot[0]).T - X[:n1]
-            else:
-                u[n1:] = (X[n1:] - c2 + ue) @ _rot_z(rot[1] + phi).T + c2 - X[n1:]
-        return u
+    def points(self, thetas, torques, penalty_scales=None, geometry_update: bool = False) -> list[StaticPoint3D]:
+        """Static TE at input angles ``thetas`` [rad] and output torques [N m]: :func:`static_te_3d` on this
+        prepared model."""
+        scales = self._scales(penalty_scales)
+        rb2 = self.pair.rb[1]
+        out = []
+        for th in thetas:
+            rows, nc, st = self.solve(th, torques, scales, keep_state=geometry_update)
+            for p, rs in zip(scales, rows):
+                for tq, (f, phi) in zip(torques, rs):
+                    n_loaded = int((f > 0).sum())
+                    if geometry_update:
+                        _, phi, _, n_loaded = self.equilibrium(th, tq, p, linear=(f, phi, st))
+                    te = rb2 * (phi - self.info["clearance_angle"])
+                    out.append(StaticPoint3D(float(th), float(tq), float(te), n_loaded, nc, p))
+                    log.info("theta %.5f rad, %g N m, penalty %g: TE %.3f um (%d of %d candidates loaded)", th, tq,
+                             p, te * 1e6, n_loaded, nc)
+        return out
 
 
 def static_te_3d(model, info: dict, pair, thetas, torques, penalty_scales=None, window: float = 40e-6,
@@ -390,22 +413,7 @@ def static_te_3d(model, info: dict, pair, thetas, torques, penalty_scales=None, 
     -------
     list of StaticPoint3D, angle-major, then penalty scale, then torque.
     """
-    sp3 = StaticPair3D(model, info, pair, stiffness, window)
-    scales = sp3._scales(penalty_scales)
-    rb2 = pair.rb[1]
-    out = []
-    for th in thetas:
-        rows, nc, _ = sp3.solve(th, torques, scales)
-        for p, rs in zip(scales, rows):
-            for tq, (f, phi) in zip(torques, rs):
-                n_loaded = int((f > 0).sum())
-                if geometry_update:
-                    _, phi, _, n_loaded = sp3.equilibrium(th, tq, p)
-                te = rb2 * (phi - info["clearance_angle"])
-                out.append(StaticPoint3D(float(th), float(tq), float(te), n_loaded, nc, p))
-                log.info("theta %.5f rad, %g N m, penalty %g: TE %.3f um (%d of %d candidates loaded)", th, tq, p,
-                         te * 1e6, n_loaded, nc)
-    return out
+    return StaticPair3D(model, info, pair, stiffness, window).points(thetas, torques, penalty_scales, geometry_update)
 
 
 def _approach(x, slaves, segs, facet, xe, nrm, idx, n1, c2) -> np.ndarray:
@@ -423,11 +431,12 @@ def _approach(x, slaves, segs, facet, xe, nrm, idx, n1, c2) -> np.ndarray:
     return a
 
 
-def _system(x, X, n1, c2, R, slaves, segs, facet, xe, nrm, pick, stiffness):
-    """Loads ``P`` (per gear, its frame), responses ``U`` (free dofs x candidates), the candidates' relative
-    normal compliance ``C`` [m/N] and closure per output rotation ``a`` [m/rad] at one placement."""
+def _system(x, n1, c2, R, slaves, segs, facet, xe, nrm, pick, stiffness):
+    """Loads ``P`` (per gear: free dofs of its frame x candidates), responses ``U`` (free dofs x candidates),
+    the candidates' relative normal compliance ``C`` [m/N] and closure per output rotation ``a`` [m/rad]
+    at positions ``x``."""
     nc = pick.size
-    n_nodes = X.shape[0]
+    n_nodes = x.shape[0]
     loads = [([], [], []), ([], [], [])]   # per gear: rows, cols, values in its own frame
     for c, i in enumerate(pick):
         N = np.asarray(shape_q4(xe[i, 0], xe[i, 1]))
@@ -442,9 +451,9 @@ def _system(x, X, n1, c2, R, slaves, segs, facet, xe, nrm, pick, stiffness):
     for g, st in enumerate(stiffness):
         rows, cols, vals = loads[g]
         n_g = n1 if g == 0 else n_nodes - n1
-        P = sp.csc_matrix((vals, (rows, cols)), shape=(3 * n_g, nc))
+        P = sp.csc_matrix((vals, (rows, cols)), shape=(3 * n_g, nc))[st.free]
         U = st.response(P)
-        C += P[st.free].T @ U
+        C += P.T @ U
         Ps.append(P)
         Us.append(U)
     C = 0.5 * (C + C.T)
