@@ -286,10 +286,11 @@ def facet_closest(x, segs, s, n):
 def _signed_gap_3d(x, segs, g_rad, seg_open, cand, ncand, i, n, lbs, order, cutoff=1e300):
     """Nearest master feature of slave ``i`` (node ``n``) among its candidates.
 
-    Returns (facet or -1, xi, eta, signed gap (negative = penetration), contact normal): the distance to the
-    closest feature, negative on the body side of that facet; beyond an open surface edge the normal
-    distance to the facet plane while the tangential overshoot is at most ``OPEN_TOL`` facet radii, and
-    facet -1 farther out (see :func:`contact_forces_3d`).
+    Returns (facet or -1, xi, eta, signed gap (negative = penetration), contact normal, tangential overshoot,
+    its direction): the distance to the closest feature, negative on the body side of that facet; beyond an
+    open surface edge the normal distance to the facet plane while the tangential overshoot (m, in the facet
+    plane, away from the edge; 0 elsewhere) is below ``OPEN_TOL`` facet radii, and facet -1 farther out
+    (see :func:`contact_forces_3d`).
 
     A bilinear facet lies in the convex hull of its corners, so its distance from the node is at least
     (distance to the corners' centroid) - (largest corner distance from that centroid). Candidates are
@@ -321,7 +322,7 @@ def _signed_gap_3d(x, segs, g_rad, seg_open, cand, ncand, i, n, lbs, order, cuto
         lbs[j] = lb; order[j] = m
         lbmin = min(lbmin, lb)
     if K == 0 or lbmin >= cutoff:
-        return -1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+        return -1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     best = -1
     bd = 0.0
     bin_ = False
@@ -335,7 +336,7 @@ def _signed_gap_3d(x, segs, g_rad, seg_open, cand, ncand, i, n, lbs, order, cuto
         if best < 0 or d < bd * (1 - 1e-12) or (d <= bd * (1 + 1e-12) and inside and not bin_):
             best = s; bd = d; bin_ = inside; bxi = xi; beta = eta; bedge = edge
     if best < 0:
-        return -1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+        return -1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     p0, p1, p2, a0, a1, a2, c0, c1, c2 = _facet_point(x, segs, best, bxi, beta)
     n0 = a1 * c2 - a2 * c1; n1 = a2 * c0 - a0 * c2; n2 = a0 * c1 - a1 * c0
     nl = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
@@ -352,18 +353,25 @@ def _signed_gap_3d(x, segs, g_rad, seg_open, cand, ncand, i, n, lbs, order, cuto
             open_edge = ((mask >> bedge) & 1) == 1
     if open_edge:
         tol = OPEN_TOL * g_rad[best]
-        if bd * bd - rn * rn > tol * tol:
-            return -1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0     # beyond the edge of the master surface
-        return best, bxi, beta, rn, n0, n1, n2
+        ov = math.sqrt(max(bd * bd - rn * rn, 0.0))
+        if ov >= tol:
+            return -1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0     # beyond the edge of the master surface
+        if ov > 1e-12 * tol:
+            t0 = (r0 - rn * n0) / ov; t1 = (r1 - rn * n1) / ov; t2 = (r2 - rn * n2) / ov
+        else:
+            t0 = 0.0; t1 = 0.0; t2 = 0.0
+        return best, bxi, beta, rn, n0, n1, n2, ov, t0, t1, t2
     if rn < 0.0 and not bin_ and bd > 1e-9 * math.sqrt(nl):
-        return best, bxi, beta, -bd, -r0 / bd, -r1 / bd, -r2 / bd   # border zone: towards the closest point
-    return best, bxi, beta, (-bd if rn < 0.0 else bd), n0, n1, n2
+        # border zone: towards the closest point
+        return best, bxi, beta, -bd, -r0 / bd, -r1 / bd, -r2 / bd, 0.0, 0.0, 0.0, 0.0
+    return best, bxi, beta, (-bd if rn < 0.0 else bd), n0, n1, n2, 0.0, 0.0, 0.0, 0.0
 
 
 @njit(cache=True)
 def nearest_facets_3d(x, slaves, segs, g_rad, cand, ncand, seg_open):
     """Nearest master feature of every slave as the 3D contact sees it: facet (-1: none), (xi, eta) on it,
-    signed gap [m] (negative = penetration) and contact normal (unit, from the master towards the slave)."""
+    signed gap [m] (negative = penetration), contact normal (unit, from the master towards the slave),
+    tangential overshoot beyond an open edge [m] (0 elsewhere) and its unit direction."""
     ns = slaves.shape[0]
     K = cand.shape[1]
     lbs = np.empty(K)
@@ -372,9 +380,11 @@ def nearest_facets_3d(x, slaves, segs, g_rad, cand, ncand, seg_open):
     xe = np.zeros((ns, 2))
     gap = np.zeros(ns)
     nrm = np.zeros((ns, 3))
+    ov = np.zeros(ns)
+    tdir = np.zeros((ns, 3))
     for i in range(ns):
-        best, bxi, beta, bg, n0, n1, n2 = _signed_gap_3d(x, segs, g_rad, seg_open, cand, ncand, i, slaves[i],
-                                                         lbs, order)
+        best, bxi, beta, bg, n0, n1, n2, o, t0, t1, t2 = _signed_gap_3d(x, segs, g_rad, seg_open, cand, ncand, i,
+                                                                      slaves[i], lbs, order)
         facet[i] = best
         xe[i, 0] = bxi
         xe[i, 1] = beta
@@ -382,13 +392,17 @@ def nearest_facets_3d(x, slaves, segs, g_rad, cand, ncand, seg_open):
         nrm[i, 0] = n0
         nrm[i, 1] = n1
         nrm[i, 2] = n2
-    return facet, xe, gap, nrm
+        ov[i] = o
+        tdir[i, 0] = t0
+        tdir[i, 1] = t1
+        tdir[i, 2] = t2
+    return facet, xe, gap, nrm, ov, tdir
 
 
 @njit(cache=True)
 def signed_gaps_3d(x, slaves, segs, g_rad, cand, ncand, seg_open):
     """Signed gap of every slave node (m; NaN without a master feature in reach), as the 3D contact sees it."""
-    facet, _, gap, _ = nearest_facets_3d(x, slaves, segs, g_rad, cand, ncand, seg_open)
+    facet, _, gap, _, _, _ = nearest_facets_3d(x, slaves, segs, g_rad, cand, ncand, seg_open)
     return np.where(facet >= 0, gap, np.nan)
 
 
@@ -401,6 +415,14 @@ def open_edge_allowance(g_rad):
     for s in range(g_rad.shape[0]):
         g_rad_max = max(g_rad_max, g_rad[s])
     return OPEN_TOL * g_rad_max
+
+
+@njit(cache=True, inline="always")
+def edge_fade(ov, tol):
+    """Penalty weight beyond an open edge and its derivative [1/m]: ``w = 1 - 3 t^2 + 2 t^3``, ``t = ov / tol``
+    (1 at the edge, 0 at the reach ``tol``, both ends with zero slope)."""
+    t = ov / tol
+    return 1.0 - t * t * (3.0 - 2.0 * t), 6.0 * t * (t - 1.0) / tol
 
 
 @njit(cache=True, inline="always")
@@ -423,13 +445,20 @@ def contact_slave_3d(x, v, slaves, s_pair, segs, g_k, g_rad, cand, ncand, p_mu, 
     n = slaves[i]
     p = s_pair[i]
     depth = p_depth[p]
-    best, bxi, beta, bg, bn0, bn1, bn2 = _signed_gap_3d(x, segs, g_rad, seg_open, cand, ncand, i, n,
-                                                        lbs[i], order[i], depth + allowance)
+    best, bxi, beta, bg, bn0, bn1, bn2, ov, t0, t1, t2 = _signed_gap_3d(x, segs, g_rad, seg_open, cand, ncand, i,
+                                                                        n, lbs[i], order[i], depth + allowance)
     if best < 0 or bg >= 0.0 or -bg >= depth:
         return   # no facet, outside the master body, or deeper than the capture depth
     k = g_k[best]
+    if ov > 0.0:
+        # beyond an open edge: energy 0.5 k w(ov) g^2 fades to zero at the reach, force its gradient
+        w, dw = edge_fade(ov, OPEN_TOL * g_rad[best])
+        k *= w
+        ft = -0.5 * g_k[best] * bg * bg * dw
+    else:
+        ft = 0.0
     fn = -k * bg
-    fx = fn * bn0; fy = fn * bn1; fz = fn * bn2
+    fx = fn * bn0 + ft * t0; fy = fn * bn1 + ft * t1; fz = fn * bn2 + ft * t2
     mu = p_mu[p]
     pfric = 0.0
     if mu > 0.0:
@@ -492,7 +521,10 @@ def contact_forces_3d(x, v, slaves, s_pair, segs, g_k, g_rad, cand, ncand, p_mu,
     and the distance to it changes sign with the side of the facet plane only through zero when the
     node passes the edge exactly in that plane. A node just beyond it (tangential overshoot up to
     ``OPEN_TOL`` of the facet radius) therefore takes the normal distance to the facet plane at the edge
-    (continuous with the inside zone); farther out it is not in contact. Without that rule a node
+    (continuous with the inside zone), with its penalty energy faded to zero over that reach
+    (:func:`edge_fade`; the force is the energy's gradient, so it has a tangential part pushing the node
+    off the edge); farther out it is not in contact. A loaded node sliding off a cut flank end thus
+    unloads continuously instead of dropping its energy ``k g^2 / 2`` at the reach. Without that rule a node
     sliding past the end of a cut master flank switched from no contact to a penetration as deep as its
     distance to the edge (tens of um) when it crossed the facet plane: 0.1-1 J out of nothing per event.
 

@@ -38,7 +38,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
 from gearrom.errors import SolverError
-from gearrom.fe.explicit.contact import contact_search, nearest_facets_3d, shape_q4
+from gearrom.fe.explicit.contact import OPEN_TOL, contact_search, nearest_facets_3d, shape_q4
 from gearrom.fe.explicit.geometry import full_integration_data
 
 log = logging.getLogger(__name__)
@@ -256,13 +256,14 @@ class StaticPair3D:
         g_k = d["g_k"] * (np.array(scales)[:, None] / self.p_model)
         w = self.window
         for _attempt in range(4):
-            facet, xe, gap, nrm, reach = self._nearest(x, w)
+            facet, xe, gap, nrm, reach, fade, _ = self._nearest(x, w)
             pick = np.nonzero(reach & (gap < w))[0]
             if pick.size == 0:
                 raise SolverError(f"no contact candidate within {w * 1e6:.0f} um at theta = {theta:.6f} rad")
             _, U, C, a = _system(x, n1, c2, (_rot_z(rot[0]), _rot_z(rot[1])), slaves, segs, facet, xe, nrm, pick,
                                  self.stiffness)
-            rows = [[solve_contact_lcp(C, a, gap[pick], float(tq), 1.0 / gk[facet[pick]]) for tq in torques]
+            wk = np.maximum(fade[pick, 0], 1e-9)
+            rows = [[solve_contact_lcp(C, a, gap[pick], float(tq), 1.0 / (gk[facet[pick]] * wk)) for tq in torques]
                     for gk in g_k]
             # a slave left out that the rigid approach alone would close: widen the window and redo
             rest = np.setdiff1d(np.nonzero(reach)[0], pick)
@@ -294,9 +295,13 @@ class StaticPair3D:
         d = self.d
         contact_search(x, d["slaves"], d["s_pair"], d["segs"], d["g_pair"], d["g_rad"], d["margin"] + window,
                        d["head"], d["nxt"], d["cand"], d["ncand"], d["cell_h"])
-        facet, xe, gap, nrm = nearest_facets_3d(x, d["slaves"], d["segs"], d["g_rad"], d["cand"], d["ncand"],
-                                                d["seg_open"])
-        return facet, xe, gap, nrm, (facet >= 0) & (gap > -self.depth)
+        facet, xe, gap, nrm, ov, tdir = nearest_facets_3d(x, d["slaves"], d["segs"], d["g_rad"], d["cand"],
+                                                          d["ncand"], d["seg_open"])
+        # penalty weight beyond an open edge (contact.edge_fade) and its slope [1/m]
+        tol = OPEN_TOL * d["g_rad"][np.maximum(facet, 0)]
+        t = np.clip(ov / tol, 0.0, 1.0)
+        fade = np.column_stack([1.0 - t * t * (3.0 - 2.0 * t), 6.0 * t * (t - 1.0) / tol])
+        return facet, xe, gap, nrm, (facet >= 0) & (gap > -self.depth), fade, tdir
 
     def equilibrium(self, theta: float, torque: float, penalty_scale: float | None = None, iterations: int = 8,
                     tol: float = 1e-9, linear=None):
@@ -331,19 +336,30 @@ class StaticPair3D:
         g_k = d["g_k"] * (scales[0] / self.p_model)
         rot = st["rot"]
         u_el = [U @ f for U in st["U"]]           # elastic fields (free dofs) in the gears' frames
+        f_all = np.zeros(d["slaves"].size)        # normal force per slave, N (for the edge-fade forces)
         for it in range(iterations):
             x = self._positions(rot, u_el, phi)
-            facet, xe, gap, nrm, reach = self._nearest(x, self.window)
+            facet, xe, gap, nrm, reach, fade, tdir = self._nearest(x, self.window)
             pick = np.nonzero(reach & (gap < self.window))[0]
             R = (_rot_z(rot[0]), _rot_z(rot[1] + phi))
             P, U, C, a = _system(x, n1, c2, R, d["slaves"], d["segs"], facet, xe, nrm, pick, self.stiffness)
             opening = sum(Pg.T @ ue for Pg, ue in zip(P, u_el))
-            f, dphi = solve_contact_lcp(C, a, gap[pick] - opening, float(torque), 1.0 / g_k[facet[pick]])
+            # beyond an open edge the explicit contact's faded energy k w g^2 / 2 also pushes tangentially,
+            # -k g^2 w' / 2 = -f^2 w' / (2 k w^2) along the overshoot: a load from the last forces
+            wk = np.maximum(fade[pick, 0], 1e-9)
+            ft = -0.5 * f_all[pick] ** 2 * fade[pick, 1] / (g_k[facet[pick]] * wk ** 2)
+            Ut, moment_t = _tangential(x, n1, c2, R, d["slaves"], d["segs"], facet, xe, tdir, pick, ft,
+                                           self.stiffness)
+            opening_t = sum(Pg.T @ ut for Pg, ut in zip(P, Ut))
+            f, dphi = solve_contact_lcp(C, a, gap[pick] - opening + opening_t, float(torque) + moment_t,
+                                        1.0 / (g_k[facet[pick]] * wk))
             phi += dphi
-            u_el = [Ug @ f for Ug in U]
+            f_all[:] = 0.0
+            f_all[pick] = f
+            u_el = [Ug @ f + ut for Ug, ut in zip(U, Ut)]
             log.info("static state at theta %.5f rad, geometry update %d: output turned by %.3g um more on the "
                      "line of action", theta, it + 1, dphi * self.pair.rb[1] * 1e6)
-            if abs(dphi) * self.pair.rb[1] < tol:
+            if abs(dphi) * self.pair.rb[1] < tol and it > 0:
                 break
         return u_el, float(phi), rot, int((f > 0).sum())
 
@@ -429,6 +445,31 @@ def _approach(x, slaves, segs, facet, xe, nrm, idx, n1, c2) -> np.ndarray:
         else:        # slave on the output: the node moves
             a[k] = -nrm[i] @ np.cross(ez, x[s] - c2)
     return a
+
+
+def _tangential(x, n1, c2, R, slaves, segs, facet, xe, tdir, pick, ft, stiffness):
+    """Known contact forces ``ft`` [N] along ``tdir`` (the edge-fade forces): their elastic responses (per
+    gear, free dofs), their counter-clockwise moment on the output about its centre [N m]."""
+    loaded = np.nonzero(ft != 0.0)[0]
+    Ut = [np.zeros(st.n_dofs) for st in stiffness]
+    if loaded.size == 0:
+        return Ut, 0.0
+    ez = np.array([0.0, 0.0, 1.0])
+    n_nodes = x.shape[0]
+    loads = [np.zeros(3 * n1), np.zeros(3 * (n_nodes - n1))]
+    moment = 0.0
+    for c in loaded:
+        i = pick[c]
+        N = np.asarray(shape_q4(xe[i, 0], xe[i, 1]))
+        F = ft[c] * tdir[i]
+        for node, wgt in [(slaves[i], 1.0)] + [(q, -N[k]) for k, q in enumerate(segs[facet[i]])]:
+            g = 0 if node < n1 else 1
+            loads[g][3 * (node - g * n1) + np.arange(3)] += R[g].T @ F * wgt
+            if g == 1:
+                moment += ez @ np.cross(x[node] - c2, F * wgt)
+    for g, st in enumerate(stiffness):
+        Ut[g] = st.response(sp.csc_matrix(loads[g][st.free][:, None])).ravel()
+    return Ut, float(moment)
 
 
 def _system(x, n1, c2, R, slaves, segs, facet, xe, nrm, pick, stiffness):
