@@ -1,42 +1,51 @@
 """Reference explicit FE runs of the seed's helical pair (3D Hex8), 120 N m on the output.
 
-Usage: ``python validation/run_explicit_helical.py RPM [PERIODS] [--integration full|reduced] [--parallel]``
-(writes validation/helical_<rpm>rpm.npz/.json, ``_full`` appended for fully integrated elements; PERIODS
-recorded mesh periods after settling, default 5).
+Usage: ``python validation/run_explicit_helical.py RPM [PERIODS] [--start loaded|gap] [--settle N] [--parallel]
+[--wall-limit-h H]``.
 
-Set-up as the spur reference (validation/run_explicit_spur.py): both gears start at speed, the output torque
-ramps in over 0.3 ms, one mesh period settles, then PERIODS mesh periods are recorded; frictionless flanks,
-no extra inertia on the reference nodes. Mesh (coarser than the spur, as the issue allows): the transverse
-all-quad mesh with 0.3 mm outline elements (outline nodes on the generated profile: 0.3 mm chords),
-2.5 mm body elements from 1 mm below the outline, extruded in 8 twisted layers (2.25 mm) over the 18 mm
-common face width, each gear cut to the sector that meshes during the run (the removed inertia is added to
-its reference node); selective mass scaling to a 2.2e-8 s step (the added mass is in the metadata);
-contact penalty factor 0.1. Default elements: fully integrated Hex8 (2x2x2 Gauss, no hourglass modes; the
-one-point Hex8 with hourglass stiffness 0.1 is too soft under the nodal contact forces of this mesh, as the
-one-point Q4 was in 2D).
-This is a long job (about half an hour per speed on one core): run it in the background.
+``--start loaded`` (the validation reference, default): the reference model of
+``validation/ringdown_helical.json`` (whole gear bodies to the bores, the mesh, layers, penalty and mass
+scaling of the static consistency study, see ``run_ringdown.REFERENCE_MESH_HELICAL``) starts from its
+loaded static state at the start position (direct static solve of the same model on its deformed contact
+geometry, :meth:`gearrom.fe.explicit.static3d.StaticPair3D.loaded_state`), each gear at its rigid-body speed,
+the full output torque from t = 0, with the ring-down's relative damping (damping ratio zeta at the mesh
+mode, on the velocity relative to each gear's rigid rotation). It settles for ``--settle`` mesh periods
+(default: the periods covering 5 time constants 1 / (zeta w_mesh-mode), after which the start transient is
+below 1 % of its size) and records PERIODS (default 10). It writes ``helical_<rpm>rpm_loaded.npz/.json``.
+The run checkpoints into ``validation/checkpoints/`` every few minutes; the same command resumes it bit
+for bit (``--wall-limit-h`` stops a sitting cleanly after a checkpoint, exit code 3). This is a job of
+hours on two cores (``--parallel``).
 
-The 3D contact's open-edge rule (gearrom.fe.explicit.contact.contact_forces_3d) keeps slave nodes that pass
-the cut ends of the master flanks from creating energy (see the gearrom.fe.explicit.helicalpair module notes).
+``--start gap`` (the older records ``helical_<rpm>rpm_full.*``): both gears at speed from a 1 um gap, the
+output torque ramped in over 0.3 ms, one settling mesh period, no damping; transverse mesh with 0.3 mm
+outline elements, 8 twisted layers, each gear cut to the sector that meshes during the run (the removed
+inertia added to its reference node), contact penalty 0.1.
+
+Frictionless flanks (mu = 0), fully integrated Hex8 (2x2x2 Gauss), no extra inertia on the reference nodes.
 """
 from __future__ import annotations
 
 import json
+import logging
+import math
 import os
 import platform
+import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
 from gearrom.config import load_config
+from gearrom.errors import RunInterrupted
 from gearrom.fe.explicit.gearpair import GearPairSetup
 from gearrom.fe.explicit.helicalpair import helical_meshes, run_helical_pair
 from gearrom.fe.explicit.result import ENERGY_NAMES
 
 HERE = Path(__file__).resolve().parent
+log = logging.getLogger("run_explicit_helical")
 
-#: mesh and step of the committed references (the validation report rebuilds the output inertia from them)
+#: mesh and step of the gap-start records (the validation report rebuilds the output inertia from them)
 OUTLINE, BODY, GRADING, LAYERS, MASS_SCALING_DT = 0.3e-3, 2.5e-3, 1.0e-3, 8, 2.2e-8
 #: 3D contact penalty and hourglass stiffness (the spur's 0.3 penalty made the 3D node-to-facet contact
 #: pump energy in bursts under load; 0.1 keeps the energy balance, with little change of the TE)
@@ -46,9 +55,76 @@ PENALTY, HOURGLASS = 0.1, 0.1
 STAGGER = False
 
 
+def _damping() -> dict:
+    path = HERE / "ringdown_helical.json"
+    if not path.is_file():
+        sys.exit(f"{path} is missing: run 'python validation/run_ringdown.py --pair helical' first (it calibrates "
+                 "the damping)")
+    d = json.loads(path.read_text())
+    if not d.get("within_10_percent"):
+        sys.exit(f"{path}: the ring-down did not reach its target damping ratio; rerun it")
+    return d
+
+
+def main_loaded(rpm: float, periods: int = 10, settle_periods: int | None = None, parallel: bool = False,
+                wall_limit: float | None = None) -> Path:
+    """Run one speed from the loaded static state; write ``helical_<rpm>rpm_loaded.npz/.json``."""
+    from run_ringdown import reference_meshes, reference_setup
+
+    cal = _damping()
+    mesh = cal["mesh"]
+    pair = load_config("thesis-helical").pair
+    meshes = reference_meshes(pair, mesh)
+    f_mesh = rpm / 60 * pair.z[0]
+    alpha, zeta, f_mode = cal["alpha_r_per_s"], cal["zeta_target"], cal["runs"][-1]["frequency_Hz"]
+    tau = 1.0 / (zeta * 2 * math.pi * f_mode)
+    if settle_periods is None:
+        settle_periods = math.ceil(5 * tau * f_mesh)
+    t_end = (settle_periods + periods) / f_mesh
+    setup = reference_setup(mesh, rpm_in=rpm, torque_out=120.0, mu=0.0, start="loaded", relative_damping=alpha)
+    stem = HERE / f"helical_{int(rpm)}rpm_loaded"
+    checkpoint = HERE / "checkpoints" / (stem.name + ".ckpt.npz")
+    checkpoint.parent.mkdir(exist_ok=True)
+    t0 = time.perf_counter()
+    try:
+        res, te, info = run_helical_pair(pair, meshes, setup, t_end=t_end, sample_period=1.0 / (f_mesh * 128),
+                                         n_layers=mesh["n_layers"], max_candidates=mesh["max_candidates"],
+                                         sector=False, parallel=parallel, checkpoint=checkpoint,
+                                         chunks=8 * (settle_periods + periods), checkpoint_every=300.0,
+                                         wall_limit=wall_limit)
+    except RunInterrupted as exc:
+        log.info("%s", exc)
+        sys.exit(3)
+    np.savez_compressed(stem.with_suffix(".npz"), t_s=res.t, te_m=te, theta_rad=res.theta,
+                        **{f"energy_{k}": res.energies[:, j] for j, k in enumerate(ENERGY_NAMES)})
+    meta = {
+        "config": "thesis-helical", "rpm_in": rpm, "torque_out_Nm": 120.0, "mu": 0.0, "start": "loaded",
+        "mesh_frequency_Hz": f_mesh, "ramp_s": 0.0, "t_steady_from_s": settle_periods / f_mesh, "t_end_s": t_end,
+        "settle_periods": settle_periods, "mesh_periods_recorded": periods, "integration": "full",
+        "threads": 2 if parallel else 1, "outline_size_mm": mesh["outline_size_m"] * 1e3,
+        "body_size_mm": mesh["body_size_m"] * 1e3, "grading_mm": mesh["grading_m"] * 1e3,
+        "n_layers": mesh["n_layers"], "layer_mm": info["layer_m"] * 1e3, "face_width_mm": info["width_m"] * 1e3,
+        "flank_spacing_mm": info["flank_spacing_m"] * 1e3, "sector_model": False,
+        "loaded_te_um": info["loaded_te_m"] * 1e6, "penalty_scale": mesh["penalty_scale"],
+        "n_elements": res.meta["n_elements"], "n_nodes": res.meta["n_nodes"], "dt_s": res.meta["dt_s"],
+        "n_steps": res.meta["n_steps"], "wall_s": res.meta["wall_time_s"],
+        "wall_this_sitting_s": time.perf_counter() - t0, "mass_scaling_dt_s": mesh["mass_scaling_dt_s"],
+        "added_mass_kg": res.meta.get("added_mass_kg", 0.0), "energy_error": res.energy_error,
+        "relative_damping_per_s": alpha, "zeta_target": zeta, "zeta_measured": cal["zeta_measured"],
+        "mesh_mode_Hz": f_mode, "decay_time_s": tau,
+        "inertia_out_kgm2": res.meta.get("inertia_out_kgm2"), "inertia_in_kgm2": res.meta.get("inertia_in_kgm2"),
+        "machine": {"cpu_count": os.cpu_count(), "platform": platform.platform(), "load_average": os.getloadavg()},
+        "te_definition": "rb1*theta1 - rb2*theta2 on the transverse line of action (transverse base radii), m, "
+                         "positive when the output lags",
+    }
+    stem.with_suffix(".json").write_text(json.dumps(meta, indent=2, default=float) + "\n")
+    return stem
+
+
 def main(rpm: float, periods: int = 5, settle_periods: int = 1, out_dir: Path = HERE,
          t_end: float | None = None, integration: str = "full", parallel: bool = False) -> Path:
-    """Run one speed and write ``helical_<rpm>rpm.npz/.json`` into ``out_dir``; ``t_end`` overrides the length."""
+    """The gap-start record: run one speed and write ``helical_<rpm>rpm[_full].npz/.json`` into ``out_dir``;
+    ``t_end`` overrides the length."""
     pair = load_config("thesis-helical").pair
     meshes = helical_meshes(pair, OUTLINE, BODY, GRADING)
     f_mesh = rpm / 60 * pair.z[0]
@@ -92,14 +168,23 @@ def main(rpm: float, periods: int = 5, settle_periods: int = 1, out_dir: Path = 
 
 if __name__ == "__main__":
     import argparse
-    import logging
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("rpm", type=float)
-    ap.add_argument("periods", type=int, nargs="?", default=5)
+    ap.add_argument("periods", type=int, nargs="?", default=None,
+                    help="recorded mesh periods (default 10 for the loaded start, 5 for the gap start)")
+    ap.add_argument("--start", choices=("loaded", "gap"), default="loaded", help="initial state (module docstring)")
+    ap.add_argument("--settle", type=int, default=None, help="mesh periods discarded before the record")
     ap.add_argument("--integration", choices=("reduced", "full"), default="full",
-                    help="element integration; 'full' (default) writes helical_<rpm>rpm_full.*")
+                    help="gap start: element integration; 'full' (default) writes helical_<rpm>rpm_full.*")
     ap.add_argument("--parallel", action="store_true", help="multi-threaded loop (both cores)")
+    ap.add_argument("--wall-limit-h", type=float, default=None,
+                    help="stop after a checkpoint once this many hours have passed (exit code 3); rerun to resume")
     a = ap.parse_args()
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
-    main(a.rpm, periods=a.periods, integration=a.integration, parallel=a.parallel)
+    if a.start == "loaded":
+        main_loaded(a.rpm, periods=a.periods or 10, settle_periods=a.settle, parallel=a.parallel,
+                    wall_limit=None if a.wall_limit_h is None else a.wall_limit_h * 3600)
+    else:
+        main(a.rpm, periods=a.periods or 5, settle_periods=1 if a.settle is None else a.settle,
+             integration=a.integration, parallel=a.parallel)

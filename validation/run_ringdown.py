@@ -1,17 +1,20 @@
-"""Damping ring-down of the explicit spur pair: the relative damping that gives a target ratio at the mesh mode.
+"""Damping ring-down of an explicit gear pair: the relative damping that gives a target ratio at the mesh mode.
 
-Usage: ``python validation/run_ringdown.py [--zeta 0.02] [--alpha0 2e4] [--duration-ms 0.8]``
-(writes validation/ringdown_spur.json and .npz).
+Usage: ``python validation/run_ringdown.py [--pair spur|helical] [--zeta 0.02] [--alpha0 2e4] [--duration-ms 0.8]``
+(writes validation/ringdown_<pair>.json and .npz).
 
-The pair is relaxed to its loaded static state at 120 N m with the input held; at t = 0 the output
-torque steps to 132 N m, and the transmission error rings at the mesh mode about the new static
+The pair (the reference model of ``--pair``: :data:`REFERENCE_MESH` for the spur, :data:`REFERENCE_MESH_HELICAL`
+for the helical pair) starts from its loaded static state at 120 N m with the input held; at t = 0 the
+output torque steps to 132 N m, and the transmission error rings at the mesh mode about the new static
 value. A damped sinusoid ``C + A exp(-zeta w t) cos(w_d t + phi)`` (w_d = w sqrt(1 - zeta^2)) is fitted
 by least squares to the record after the first 0.05 ms (the higher body modes, which the mass
 proportional damping takes out faster, are gone by then). Mass-proportional damping on the velocity
 relative to each gear's rigid rotation gives a modal ratio proportional to alpha_r at one mode, so
 the run at ``alpha0`` gives ``alpha_r = alpha0 zeta_target / zeta_0``, and a second run at alpha_r
 checks it (pass: within 10 % of the target). This alpha_r is used by the reference runs
-(``run_explicit_spur.py --start loaded``) and the ROM gets the same ratio at its mesh mode.
+(``run_explicit_spur.py --start loaded``, ``run_explicit_helical.py``) and the ROM gets the same ratio at
+its mesh mode. The spur's loaded state is the dynamic relaxation of its model, the helical one the direct
+static solve of its model (:meth:`gearrom.fe.explicit.static3d.StaticPair3D.loaded_state`).
 """
 from __future__ import annotations
 
@@ -29,8 +32,10 @@ from scipy.optimize import curve_fit
 from gearrom.config import load_config
 from gearrom.fe.explicit.driver import solve
 from gearrom.fe.explicit.gearmesh import gear_quad_mesh
+from gearrom.fe.explicit.driver import prepare
 from gearrom.fe.explicit.gearpair import (GearPairSetup, gear_pair_model, loaded_model, relaxed_state,
                                           transmission_error)
+from gearrom.fe.explicit.helicalpair import helical_meshes, helical_pair_model
 
 HERE = Path(__file__).resolve().parent
 log = logging.getLogger("ringdown")
@@ -51,10 +56,50 @@ REFERENCE_MESH = {"outline_size_m": 0.15e-3, "body_size_m": 0.75e-3, "sag_m": 0.
                   "penalty_scale": 1.0, "periodic": True}
 
 
+#: the helical reference model (whole gear bodies to the bores), shared by the ring-down and
+#: run_explicit_helical.py through ringdown_helical.json: the transverse Q4 section with 0.15 mm outline
+#: elements on the generated profile, 2.5 mm body elements from 1 mm below the outline, 16 twisted Hex8
+#: layers (1.125 mm) over the face width, fully integrated, contact penalty scale 3, selective mass
+#: scaling to a 2.2e-8 s step. Chosen by the static consistency study
+#: (validation/static_gate_helical_*.json): 8 layers or the 0.3 mm outline leave the mean static TE 5-9 %
+#: above the 3D LTCA at 60 N m; 16 layers of the 0.15 mm outline bring it within a few per cent at both
+#: torques, and penalty scale 3 is within about 1 % of hard contact there.
+REFERENCE_MESH_HELICAL = {"outline_size_m": 0.15e-3, "body_size_m": 2.5e-3, "grading_m": 1.0e-3, "n_layers": 16,
+                          "sag_m": None, "mass_scaling_dt_s": 2.2e-8, "penalty_scale": 3.0,
+                          "hourglass_stiffness": 0.1, "max_candidates": 32}
+REFERENCE = {"spur": REFERENCE_MESH, "helical": REFERENCE_MESH_HELICAL}
+
+
 def reference_meshes(pair, mesh: dict = REFERENCE_MESH):
-    """The two gear meshes of the reference model."""
+    """The two gear meshes of the reference model (transverse sections of a helical pair)."""
+    if pair.is_helical:
+        return helical_meshes(pair, mesh["outline_size_m"], mesh["body_size_m"], mesh["grading_m"], sag=mesh["sag_m"])
     return [gear_quad_mesh(pair, i, mesh["outline_size_m"], mesh["body_size_m"], sag=mesh["sag_m"],
                            periodic=mesh.get("periodic", False)) for i in (0, 1)]
+
+
+def reference_setup(mesh: dict, **kw) -> GearPairSetup:
+    """The reference model's operating point: fully integrated, its mass scaling and penalty, ``kw`` on top."""
+    extra = {"hourglass_stiffness": mesh["hourglass_stiffness"]} if "hourglass_stiffness" in mesh else {}
+    return GearPairSetup(integration="full", mass_scaling_dt=mesh["mass_scaling_dt_s"],
+                         penalty_scale=mesh["penalty_scale"], **extra, **kw)
+
+
+def reference_model(pair, meshes, setup: GearPairSetup, mesh: dict):
+    """``(model, info)`` of the reference pair (helical: whole bodies, ``mesh["n_layers"]`` layers)."""
+    if pair.is_helical:
+        return helical_pair_model(pair, meshes, setup, mesh["n_layers"])
+    return gear_pair_model(pair, meshes, setup)
+
+
+def loaded_state(pair, model, info, torque: float):
+    """The reference model's loaded static state ``(u, theta, value)`` at ``torque`` [N m]."""
+    if pair.is_helical:
+        from gearrom.fe.explicit.static3d import StaticPair3D
+
+        u, theta, te = StaticPair3D(model, info, pair).loaded_state(torque)
+        return u, theta, 0.0
+    return relaxed_state(model, torque)
 
 
 def fit_ringdown(t: np.ndarray, y: np.ndarray) -> dict:
@@ -86,41 +131,45 @@ def fit_ringdown(t: np.ndarray, y: np.ndarray) -> dict:
 
 
 def ringdown(pair, meshes, alpha: float, duration: float, relaxed=None, torque0: float = 120.0,
-             torque1: float = 132.0, skip: float = 0.05e-3, parallel: bool = True):
-    setup = GearPairSetup(rpm_in=1e-4, torque_out=torque1, integration="full", start="loaded", relative_damping=alpha,
-                          mass_scaling_dt=REFERENCE_MESH["mass_scaling_dt_s"], penalty_scale=REFERENCE_MESH["penalty_scale"])
-    model, info = gear_pair_model(pair, meshes, setup)
+             torque1: float = 132.0, skip: float = 0.05e-3, parallel: bool = True, mesh: dict = REFERENCE_MESH):
+    setup = reference_setup(mesh, rpm_in=1e-4, torque_out=torque1, start="loaded", relative_damping=alpha)
+    model, info = reference_model(pair, meshes, setup, mesh)
     if relaxed is None:
-        relaxed = relaxed_state(model, torque0)
+        relaxed = loaded_state(pair, model, info, torque0)
     run = loaded_model(model, info, setup, relaxed)
     t0 = time.perf_counter()
     # checkpointed (a run takes tens of minutes on one core): running the script again resumes it
     CHECKPOINTS.mkdir(exist_ok=True)
+    kind = "helical_" if pair.is_helical else ""
     res = solve(run, duration, 2e-6, parallel=parallel, chunks=40,
-                checkpoint=CHECKPOINTS / f"ringdown_alpha{alpha:.10g}.ckpt.npz", checkpoint_every=120.0)
+                prepared=prepare(run, 0.9, mesh.get("max_candidates")),
+                checkpoint=CHECKPOINTS / f"ringdown_{kind}alpha{alpha:.10g}.ckpt.npz", checkpoint_every=120.0)
     te = transmission_error(res, info["rb"], info["clearance_angle"])
     w = res.t >= skip
     fit = fit_ringdown(res.t[w], te[w])
     fit.update(alpha_r_per_s=alpha, wall_s=time.perf_counter() - t0, dt_s=res.meta["dt_s"],
-               energy_error=res.energy_error)
+               energy_error=res.energy_error, n_elements=res.meta["n_elements"],
+               added_mass_kg=res.meta.get("added_mass_kg", 0.0))
     log.info("alpha_r %.4g 1/s: zeta %.4f at %.1f Hz (fit rms %.3f um)", alpha, fit["zeta"], fit["frequency_Hz"],
              fit["fit_rms_um"])
     return fit, relaxed, res.t, te
 
 
-def main(zeta: float, alpha0: float, duration: float, parallel: bool = True) -> Path:
-    pair = load_config("thesis-spur").pair
-    meshes = reference_meshes(pair)
-    fit0, relaxed, t_a, te_a = ringdown(pair, meshes, alpha0, duration, parallel=parallel)
+def main(zeta: float, alpha0: float, duration: float, parallel: bool = True, kind: str = "spur") -> Path:
+    config = f"thesis-{kind}"
+    pair = load_config(config).pair
+    mesh = REFERENCE[kind]
+    meshes = reference_meshes(pair, mesh)
+    fit0, relaxed, t_a, te_a = ringdown(pair, meshes, alpha0, duration, parallel=parallel, mesh=mesh)
     alpha1 = alpha0 * zeta / fit0["zeta"]
-    fit1, _, t_b, te_b = ringdown(pair, meshes, alpha1, duration, relaxed, parallel=parallel)
-    out = {"config": "thesis-spur", "integration": "full", "mesh": REFERENCE_MESH,
+    fit1, _, t_b, te_b = ringdown(pair, meshes, alpha1, duration, relaxed, parallel=parallel, mesh=mesh)
+    out = {"config": config, "integration": "full", "mesh": mesh,
            "torque_step_Nm": [120.0, 132.0], "zeta_target": zeta, "runs": [fit0, fit1],
            "alpha_r_per_s": alpha1, "zeta_measured": fit1["zeta"],
            "within_10_percent": bool(abs(fit1["zeta"] / zeta - 1) < 0.1),
            "machine": {"cpu_count": os.cpu_count(), "platform": platform.platform(),
                        "load_average": os.getloadavg()}}
-    stem = HERE / "ringdown_spur"
+    stem = HERE / f"ringdown_{kind}"
     np.savez_compressed(stem.with_suffix(".npz"), t0_s=t_a, te0_m=te_a, t1_s=t_b, te1_m=te_b)
     stem.with_suffix(".json").write_text(json.dumps(out, indent=2) + "\n")
     return stem
@@ -128,10 +177,11 @@ def main(zeta: float, alpha0: float, duration: float, parallel: bool = True) -> 
 
 if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--pair", choices=("spur", "helical"), default="spur", help="which reference model")
     ap.add_argument("--zeta", type=float, default=0.02, help="target damping ratio at the mesh mode")
     ap.add_argument("--alpha0", type=float, default=2e4, help="relative damping of the first run, 1/s")
     ap.add_argument("--duration-ms", type=float, default=0.8)
     ap.add_argument("--serial", action="store_true", help="one thread (leaves the other core to another job)")
     a = ap.parse_args()
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
-    main(a.zeta, a.alpha0, a.duration_ms * 1e-3, parallel=not a.serial)
+    main(a.zeta, a.alpha0, a.duration_ms * 1e-3, parallel=not a.serial, kind=a.pair)

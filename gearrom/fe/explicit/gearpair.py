@@ -352,6 +352,16 @@ def loaded_model(model: ExplicitModel, info: dict, setup: GearPairSetup, relaxed
     return dataclasses.replace(model, references=refs, initial_displacement=u, initial_velocity=v)
 
 
+def polar_inertias(model: ExplicitModel, mass: np.ndarray, off: int) -> tuple[float, float]:
+    """Polar inertia [kg m^2] of each gear's nodes about its axis with the nodal masses a run used (selective
+    mass scaling included; ``off``: the input's node count), plus the extra inertia of its reference."""
+    xy = np.asarray(model.nodes, float)[:, :2]
+    c2 = np.asarray(model.references[1].center, float)[:2]
+    j1 = float(np.sum(mass[:off] * np.sum(xy[:off] ** 2, axis=1)))
+    j2 = float(np.sum(mass[off:] * np.sum((xy[off:] - c2) ** 2, axis=1)))
+    return j1 + float(model.references[0].inertia), j2 + float(model.references[1].inertia)
+
+
 def stored_start_state(checkpoint, suffix: str, value_key: str, shape, torque: float, compute):
     """A run's start state ``(u, theta, value)``, kept next to its checkpoint as ``<checkpoint><suffix>``.
 
@@ -391,11 +401,7 @@ def run_gear_pair(pair, meshes, setup: GearPairSetup, t_end: float, sample_perio
     d = prepare(model, solve_kw.pop("safety", 0.9))
     res = solve(model, t_end, sample_period, prepared=d, **solve_kw)
     te = transmission_error(res, info["rb"], info["clearance_angle"])
-    # polar inertia of each gear about its axis with the mass the run used (selective mass scaling included)
-    off = info["n_gear1"]
-    c2 = np.asarray(model.references[1].center, float)
-    j1 = float(np.sum(d["mass"][:off] * np.sum(model.nodes[:off] ** 2, axis=1)) * 1.0)
-    j2 = float(np.sum(d["mass"][off:] * np.sum((model.nodes[off:] - c2) ** 2, axis=1)))
+    j1, j2 = polar_inertias(model, d["mass"], info["n_gear1"])
     res.meta.update(rpm_in=setup.rpm_in, torque_out_Nm=setup.torque_out, mu=setup.mu, start=setup.start,
                     flank_spacing_m=info["flank_spacing_m"], penalty_scale=setup.penalty_scale,
                     inertia_in_kgm2=j1, inertia_out_kgm2=j2)

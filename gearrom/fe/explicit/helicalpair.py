@@ -50,7 +50,7 @@ import numpy as np
 from gearrom.errors import ConfigError, MeshError
 from gearrom.fe.explicit.driver import solve
 from gearrom.fe.explicit.gearpair import (GearPairSetup, first_touch, gear_pair_model, outline_order,
-                                          transmission_error)
+                                          polar_inertias, transmission_error)
 from gearrom.fe.explicit.model import ExplicitModel, Material, boundary_segments
 from gearrom.fe.explicit.result import ExplicitResult
 
@@ -380,7 +380,8 @@ def helical_pair_model(pair, meshes, setup: GearPairSetup, n_layers: int, materi
     model = ExplicitModel(
         nodes, hexes, m2d.material, node_sets=sets, surfaces=surfaces,
         references=refs, contacts=m2d.contacts, initial_velocity=v0, mass_damping=setup.mass_damping,
-        integration=setup.integration, hourglass_stiffness=setup.hourglass_stiffness,
+        relative_damping=setup.relative_damping, integration=setup.integration,
+        hourglass_stiffness=setup.hourglass_stiffness,
         hourglass_viscosity=setup.hourglass_viscosity,
         mass_scaling_dt=setup.mass_scaling_dt)
     dtw = abs(tw1[1] - tw1[0])
@@ -491,11 +492,12 @@ def run_helical_pair(pair, meshes, setup: GearPairSetup, t_end: float, sample_pe
         log.info("loaded start: static TE %.3f um (direct static solve)", state[2] * 1e6)
         model = loaded_model(model, info, setup, (state[0], state[1], 0.0))
         info = dict(info, loaded_te_m=state[2])
-    res = solve(model, t_end, sample_period, prepared=prepare(model, solve_kw.pop("safety", 0.9), max_candidates),
-                **solve_kw)
+    d = prepare(model, solve_kw.pop("safety", 0.9), max_candidates)
+    res = solve(model, t_end, sample_period, prepared=d, **solve_kw)
     te = transmission_error(res, info["rb"], info["clearance_angle"])
+    j1, j2 = polar_inertias(model, d["mass"], info["n_nodes_gear1"])
     res.meta.update(rpm_in=setup.rpm_in, torque_out_Nm=setup.torque_out, mu=setup.mu, start=setup.start,
                     flank_spacing_m=info["flank_spacing_m"], penalty_scale=setup.penalty_scale,
                     n_layers=n_layers, layer_m=info["layer_m"], max_candidates=max_candidates,
-                    removed_inertia_kgm2=info["removed_inertia_kgm2"])
+                    removed_inertia_kgm2=info["removed_inertia_kgm2"], inertia_in_kgm2=j1, inertia_out_kgm2=j2)
     return res, te, info
