@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from gearrom.fe.explicit.contact import OPEN_TOL, contact_forces_3d, facet_closest, signed_gaps_3d
+from gearrom.fe.explicit.contact import OPEN_TOL, contact_forces_3d, facet_closest, facet_sags, signed_gaps_3d
 from gearrom.fe.explicit.driver import _open_edges
 
 H = 1e-3          # facet size, m
@@ -34,13 +34,14 @@ def _contact(master, p):
     n = len(nodes)
     g_rad = np.array([np.linalg.norm(x[s] - x[s].mean(axis=0), axis=1).max() for s in segs])
     seg_open = _open_edges(segs, np.zeros(len(segs), np.int64))
+    seg_sag = facet_sags(nodes, segs, np.zeros(len(segs), np.int64))     # flat master: no sag
     f = np.zeros_like(x)
     gap = np.zeros(1)
     cand = np.array([list(range(len(segs)))])
     e, _ = contact_forces_3d(x, np.zeros_like(x), np.array([n]), np.array([0]), segs, np.full(len(segs), K), g_rad,
                              cand, np.array([len(segs)]), np.array([0.0]), np.array([1e-3]), np.array([DEPTH]), f,
-                             gap, seg_open)
-    g = signed_gaps_3d(x, np.array([n]), segs, g_rad, cand, np.array([len(segs)]), seg_open)[0]
+                             gap, seg_open, seg_sag)
+    g = signed_gaps_3d(x, np.array([n]), segs, g_rad, cand, np.array([len(segs)]), seg_open, seg_sag)[0]
     return f[n].copy(), e, g
 
 

@@ -116,7 +116,8 @@ def test_no_initial_overclosure_across_the_face(helical, coarse_meshes):
     assert d["ncand"].sum() > 0                      # the flanks are within reach of each other
     f = np.zeros_like(x)
     energy, _ = contact_forces_3d(x, np.zeros_like(x), d["slaves"], d["s_pair"], d["segs"], d["g_k"], d["g_rad"], d["cand"],
-                                  d["ncand"], d["p_mu"], d["p_vreg"], d["p_depth"], f, d["gap"], d["seg_open"])
+                                  d["ncand"], d["p_mu"], d["p_vreg"], d["p_depth"], f, d["gap"], d["seg_open"],
+                                  d["seg_sag"])
     assert energy == 0.0 and np.all(d["gap"] >= 0)
     assert min(info["layer_slack_m"]) > -1e-3         # every layer's rigid touch was bracketed and found
 

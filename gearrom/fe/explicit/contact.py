@@ -283,14 +283,15 @@ def facet_closest(x, segs, s, n):
 
 
 @njit(cache=True, fastmath=True)
-def _signed_gap_3d(x, segs, g_rad, seg_open, cand, ncand, i, n, lbs, order, cutoff=1e300):
+def _signed_gap_3d(x, segs, g_rad, seg_open, seg_sag, cand, ncand, i, n, lbs, order, cutoff=1e300):
     """Nearest master feature of slave ``i`` (node ``n``) among its candidates.
 
     Returns (facet or -1, xi, eta, signed gap (negative = penetration), contact normal, tangential overshoot,
     its direction): the distance to the closest feature, negative on the body side of that facet; beyond an
     open surface edge the normal distance to the facet plane while the tangential overshoot (m, in the facet
     plane, away from the edge; 0 elsewhere) is below ``OPEN_TOL`` facet radii, and facet -1 farther out
-    (see :func:`contact_forces_3d`).
+    (see :func:`contact_forces_3d`). The facet's sag (``seg_sag``, :func:`facet_sags`) is taken off the gap,
+    and the "normal" is the gradient of that gap with respect to the slave's position (unit without sag).
 
     A bilinear facet lies in the convex hull of its corners, so its distance from the node is at least
     (distance to the corners' centroid) - (largest corner distance from that centroid). Candidates are
@@ -351,6 +352,35 @@ def _signed_gap_3d(x, segs, g_rad, seg_open, cand, ncand, i, n, lbs, order, cuto
             open_edge = ((mask >> q) & 1) == 1 or ((mask >> ((q + 3) % 4)) & 1) == 1
         else:
             open_edge = ((mask >> bedge) & 1) == 1
+    # the surface between the facet's corners bulges out of the bilinear facet by the sag
+    # s = sa (1 - xi^2) + sb (1 - eta^2) (:func:`facet_sags`); its gradient with respect to the slave
+    # follows the free projection coordinates (dual basis of the facet tangents), a clamped one is fixed
+    sa = seg_sag[best, 0]
+    sb = seg_sag[best, 1]
+    sg = sa * (1.0 - bxi * bxi) + sb * (1.0 - beta * beta)
+    q0 = 0.0; q1 = 0.0; q2 = 0.0
+    if sa != 0.0 or sb != 0.0:
+        fxi = abs(bxi) < 1.0
+        feta = abs(beta) < 1.0
+        dxi = -2.0 * sa * bxi
+        deta = -2.0 * sb * beta
+        g11 = a0 * a0 + a1 * a1 + a2 * a2
+        g22 = c0 * c0 + c1 * c1 + c2 * c2
+        g12 = a0 * c0 + a1 * c1 + a2 * c2
+        if fxi and feta:
+            det = g11 * g22 - g12 * g12
+            wa = (dxi * g22 - deta * g12) / det
+            wc = (deta * g11 - dxi * g12) / det
+        elif fxi:
+            wa = dxi / g11
+            wc = 0.0
+        elif feta:
+            wa = 0.0
+            wc = deta / g22
+        else:
+            wa = 0.0
+            wc = 0.0
+        q0 = wa * a0 + wc * c0; q1 = wa * a1 + wc * c1; q2 = wa * a2 + wc * c2
     if open_edge:
         tol = OPEN_TOL * g_rad[best]
         ov = math.sqrt(max(bd * bd - rn * rn, 0.0))
@@ -360,17 +390,20 @@ def _signed_gap_3d(x, segs, g_rad, seg_open, cand, ncand, i, n, lbs, order, cuto
             t0 = (r0 - rn * n0) / ov; t1 = (r1 - rn * n1) / ov; t2 = (r2 - rn * n2) / ov
         else:
             t0 = 0.0; t1 = 0.0; t2 = 0.0
-        return best, bxi, beta, rn, n0, n1, n2, ov, t0, t1, t2
-    if rn < 0.0 and not bin_ and bd > 1e-9 * math.sqrt(nl):
-        # border zone: towards the closest point
-        return best, bxi, beta, -bd, -r0 / bd, -r1 / bd, -r2 / bd, 0.0, 0.0, 0.0, 0.0
-    return best, bxi, beta, (-bd if rn < 0.0 else bd), n0, n1, n2, 0.0, 0.0, 0.0, 0.0
+        return best, bxi, beta, rn - sg, n0 - q0, n1 - q1, n2 - q2, ov, t0, t1, t2
+    if bin_ or bd <= 1e-9 * math.sqrt(nl):
+        return best, bxi, beta, (-bd if rn < 0.0 else bd) - sg, n0 - q0, n1 - q1, n2 - q2, 0.0, 0.0, 0.0, 0.0
+    # border zones (beyond a shared edge or corner): the distance to the closest point, signed by the side
+    sgn = -1.0 if rn < 0.0 else 1.0
+    return (best, bxi, beta, sgn * bd - sg, sgn * r0 / bd - q0, sgn * r1 / bd - q1, sgn * r2 / bd - q2,
+            0.0, 0.0, 0.0, 0.0)
 
 
 @njit(cache=True)
-def nearest_facets_3d(x, slaves, segs, g_rad, cand, ncand, seg_open):
+def nearest_facets_3d(x, slaves, segs, g_rad, cand, ncand, seg_open, seg_sag):
     """Nearest master feature of every slave as the 3D contact sees it: facet (-1: none), (xi, eta) on it,
-    signed gap [m] (negative = penetration), contact normal (unit, from the master towards the slave),
+    signed gap [m] (negative = penetration), contact normal (from the master towards the slave: the gap's
+    gradient, unit on a facet without sag),
     tangential overshoot beyond an open edge [m] (0 elsewhere) and its unit direction."""
     ns = slaves.shape[0]
     K = cand.shape[1]
@@ -383,8 +416,8 @@ def nearest_facets_3d(x, slaves, segs, g_rad, cand, ncand, seg_open):
     ov = np.zeros(ns)
     tdir = np.zeros((ns, 3))
     for i in range(ns):
-        best, bxi, beta, bg, n0, n1, n2, o, t0, t1, t2 = _signed_gap_3d(x, segs, g_rad, seg_open, cand, ncand, i,
-                                                                      slaves[i], lbs, order)
+        best, bxi, beta, bg, n0, n1, n2, o, t0, t1, t2 = _signed_gap_3d(x, segs, g_rad, seg_open, seg_sag, cand,
+                                                                      ncand, i, slaves[i], lbs, order)
         facet[i] = best
         xe[i, 0] = bxi
         xe[i, 1] = beta
@@ -400,21 +433,86 @@ def nearest_facets_3d(x, slaves, segs, g_rad, cand, ncand, seg_open):
 
 
 @njit(cache=True)
-def signed_gaps_3d(x, slaves, segs, g_rad, cand, ncand, seg_open):
+def signed_gaps_3d(x, slaves, segs, g_rad, cand, ncand, seg_open, seg_sag):
     """Signed gap of every slave node (m; NaN without a master feature in reach), as the 3D contact sees it."""
-    facet, _, gap, _, _, _ = nearest_facets_3d(x, slaves, segs, g_rad, cand, ncand, seg_open)
+    facet, _, gap, _, _, _ = nearest_facets_3d(x, slaves, segs, g_rad, cand, ncand, seg_open, seg_sag)
     return np.where(facet >= 0, gap, np.nan)
 
 
 @njit(cache=True)
-def open_edge_allowance(g_rad):
-    """Tangential reach (m) beyond an open surface edge: ``OPEN_TOL`` times the largest facet radius (see
-    :func:`contact_forces_3d`); a node farther than the capture depth plus this from every facet is not
-    in contact."""
+def open_edge_allowance(g_rad, seg_sag):
+    """Reach (m) of the contact beyond the capture depth from a facet: ``OPEN_TOL`` times the largest facet
+    radius (the tangential reach beyond an open surface edge, see :func:`contact_forces_3d`) plus the
+    largest outward sag; a node farther than the capture depth plus this from every facet is not in
+    contact."""
     g_rad_max = 0.0
+    sag_max = 0.0
     for s in range(g_rad.shape[0]):
         g_rad_max = max(g_rad_max, g_rad[s])
-    return OPEN_TOL * g_rad_max
+        sag_max = max(sag_max, max(seg_sag[s, 0], 0.0) + max(seg_sag[s, 1], 0.0))
+    return OPEN_TOL * g_rad_max + sag_max
+
+
+#: facets whose normals differ by more than this angle (rad) meet at a crease (a tip chamfer on a flank), not on
+#: one smooth surface (neighbouring 0.3 mm facets of an involute flank above the form circle differ by a few degrees)
+CREASE_ANGLE = math.radians(12.0)
+
+
+def facet_sags(x: np.ndarray, segs: np.ndarray, g_pair: np.ndarray) -> np.ndarray:
+    """Sag [m] of the smooth surface that bilinear facets discretize, per facet and parametric direction.
+
+    The corners of a facet lie on the surface, which between them bulges out of the facet (convex) or in
+    (concave). Across each edge, the curvature along the facet's parametric direction is estimated from
+    the neighbouring facet of the same surface (same contact pair): ``kappa = (n_t - n_s) . d / |d|^2``
+    with ``n`` the unit normals at the facet centres and ``d`` the vector between the centres (for a
+    circle of radius rho: 1 / rho, positive when the surface turns away from its outward normal), the
+    mean over the two sides (one at an open edge; none across a crease sharper than :data:`CREASE_ANGLE`).
+    The surface then lies ``s(xi, eta) = sa (1 - xi^2) + sb (1 - eta^2)`` outside the facet, with the
+    mid-chord sag ``sa = kappa_xi L_xi^2 / 8`` (``L_xi``: the facet's length between its xi = -1 and +1
+    edges) and ``sb`` likewise along eta. Returns ``(nseg, 2)``: ``sa``, ``sb``; 2D segments give zeros.
+    """
+    segs = np.asarray(segs, np.int64)
+    out = np.zeros((len(segs), 2))
+    if segs.ndim != 2 or segs.shape[1] != 4 or len(segs) == 0:
+        return out
+    xs = np.asarray(x, float)[segs]                           # (nseg, 4, 3)
+    cen = xs.mean(axis=1)
+    a = 0.25 * (-xs[:, 0] + xs[:, 1] + xs[:, 2] - xs[:, 3])
+    c = 0.25 * (-xs[:, 0] - xs[:, 1] + xs[:, 2] + xs[:, 3])
+    nrm = np.cross(a, c)
+    nrm /= np.linalg.norm(nrm, axis=1)[:, None]
+    # neighbour across each edge e (nodes e, e + 1): the other facet of the same pair with that edge
+    ed = np.stack([np.sort(np.stack([segs[:, e], segs[:, (e + 1) % 4]], axis=1), axis=1) for e in range(4)], axis=1)
+    keys = np.concatenate([np.repeat(np.asarray(g_pair, np.int64), 4)[:, None], ed.reshape(-1, 2)], axis=1)
+    _, inv = np.unique(keys, axis=0, return_inverse=True)
+    inv = inv.ravel()
+    owner = np.repeat(np.arange(len(segs)), 4)
+    nbr = np.full(4 * len(segs), -1, np.int64)
+    order = np.argsort(inv, kind="stable")
+    grp = inv[order]
+    same = np.nonzero(grp[1:] == grp[:-1])[0]
+    for i, j in zip(order[same], order[same + 1]):
+        nbr[i] = owner[j]
+        nbr[j] = owner[i]
+    nbr = nbr.reshape(-1, 4)
+    cos_crease = math.cos(CREASE_ANGLE)
+    for col, (e_lo, e_hi, tang) in enumerate(((3, 1, a), (0, 2, c))):
+        kap = np.zeros(len(segs))
+        cnt = np.zeros(len(segs))
+        for e in (e_lo, e_hi):
+            t = nbr[:, e]
+            ok = t >= 0
+            s_ok = np.nonzero(ok)[0]
+            t_ok = t[ok]
+            ok2 = np.einsum("ij,ij->i", nrm[s_ok], nrm[t_ok]) > cos_crease
+            s_ok, t_ok = s_ok[ok2], t_ok[ok2]
+            d = cen[t_ok] - cen[s_ok]
+            kap[s_ok] += np.einsum("ij,ij->i", nrm[t_ok] - nrm[s_ok], d) / np.einsum("ij,ij->i", d, d)
+            cnt[s_ok] += 1
+        has = cnt > 0
+        length = 2.0 * np.linalg.norm(tang, axis=1)            # distance between the two edges' midpoints
+        out[has, col] = kap[has] / cnt[has] * length[has] ** 2 / 8.0
+    return out
 
 
 @njit(cache=True, inline="always")
@@ -434,7 +532,7 @@ def shape_q4(xi, eta):
 
 @njit(cache=True, fastmath=True)
 def contact_slave_3d(x, v, slaves, s_pair, segs, g_k, g_rad, cand, ncand, p_mu, p_vreg, p_depth, seg_open,
-                     allowance, i, lbs, order, out):
+                     seg_sag, allowance, i, lbs, order, out):
     """Contact of slave ``i`` alone (touches only row ``i`` of ``out`` and of the scratch ``lbs``,
     ``order`` (ns, K)): the slaves can be processed in parallel, :func:`contact_scatter_3d` then adds the
     forces. ``allowance``: :func:`open_edge_allowance`. ``out[i]``: facet (-1: no contact), xi, eta,
@@ -445,8 +543,9 @@ def contact_slave_3d(x, v, slaves, s_pair, segs, g_k, g_rad, cand, ncand, p_mu, 
     n = slaves[i]
     p = s_pair[i]
     depth = p_depth[p]
-    best, bxi, beta, bg, bn0, bn1, bn2, ov, t0, t1, t2 = _signed_gap_3d(x, segs, g_rad, seg_open, cand, ncand, i,
-                                                                        n, lbs[i], order[i], depth + allowance)
+    best, bxi, beta, bg, bn0, bn1, bn2, ov, t0, t1, t2 = _signed_gap_3d(x, segs, g_rad, seg_open, seg_sag, cand,
+                                                                        ncand, i, n, lbs[i], order[i],
+                                                                        depth + allowance)
     if best < 0 or bg >= 0.0 or -bg >= depth:
         return   # no facet, outside the master body, or deeper than the capture depth
     k = g_k[best]
@@ -467,8 +566,10 @@ def contact_slave_3d(x, v, slaves, s_pair, segs, g_k, g_rad, cand, ncand, p_mu, 
         for q in range(4):
             nd = segs[best, q]
             vx -= N[q] * v[nd, 0]; vy -= N[q] * v[nd, 1]; vz -= N[q] * v[nd, 2]
-        vn = vx * bn0 + vy * bn1 + vz * bn2
-        vtx = vx - vn * bn0; vty = vy - vn * bn1; vtz = vz - vn * bn2
+        nl = math.sqrt(bn0 * bn0 + bn1 * bn1 + bn2 * bn2)
+        u0 = bn0 / nl; u1 = bn1 / nl; u2 = bn2 / nl
+        vn = vx * u0 + vy * u1 + vz * u2
+        vtx = vx - vn * u0; vty = vy - vn * u1; vtz = vz - vn * u2
         vt2 = vtx * vtx + vty * vty + vtz * vtz
         sc = mu * fn / math.sqrt(vt2 + p_vreg[p] * p_vreg[p])
         fx -= sc * vtx; fy -= sc * vty; fz -= sc * vtz
@@ -512,7 +613,8 @@ def contact_scatter_3d(slaves, segs, out, f, gap):
 
 
 @njit(cache=True)
-def contact_forces_3d(x, v, slaves, s_pair, segs, g_k, g_rad, cand, ncand, p_mu, p_vreg, p_depth, f, gap, seg_open):
+def contact_forces_3d(x, v, slaves, s_pair, segs, g_k, g_rad, cand, ncand, p_mu, p_vreg, p_depth, f, gap, seg_open,
+                      seg_sag):
     """Add 3D node-to-bilinear-facet penalty/friction forces to ``f``; see :func:`contact_forces_2d`.
 
     The closest feature of the master surface gives the signed distance, as in 2D. ``seg_open`` (nseg,)
@@ -536,8 +638,8 @@ def contact_forces_3d(x, v, slaves, s_pair, segs, g_k, g_rad, cand, ncand, p_mu,
     lbs = np.empty((ns, K))
     order = np.empty((ns, K), np.int64)
     out = np.empty((ns, 9))
-    allowance = open_edge_allowance(g_rad)
+    allowance = open_edge_allowance(g_rad, seg_sag)
     for i in range(ns):
         contact_slave_3d(x, v, slaves, s_pair, segs, g_k, g_rad, cand, ncand, p_mu, p_vreg, p_depth, seg_open,
-                         allowance, i, lbs, order, out)
+                         seg_sag, allowance, i, lbs, order, out)
     return contact_scatter_3d(slaves, segs, out, f, gap)

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from gearrom.errors import ConfigError, ModelError, RunInterrupted
+from gearrom.fe.explicit.contact import facet_sags
 from gearrom.fe.explicit.elements import element_type
 from gearrom.fe.explicit.geometry import color_elements, nodal_omega2
 from gearrom.fe.explicit.loop import (CONTACT_ARRAYS, ELEMENT_ARRAYS, LOAD_ARRAYS, NE_OUT, NODE_ARRAYS, OUTPUT_ARRAYS,
@@ -245,6 +246,7 @@ def _contact_arrays(model: ExplicitModel, conn0, V0, lam: float, mu: float, mass
     d["ncand"] = np.zeros(ns, np.int64)
     d["gap"] = np.zeros(ns)
     d["seg_open"] = _open_edges(d["segs"], d["g_pair"])
+    d["seg_sag"] = facet_sags(model.nodes, d["segs"], d["g_pair"]) if nc else np.zeros((0, 2))
     d["c_nodes"] = np.unique(np.concatenate([d["slaves"], d["segs"].ravel()])) if nc else np.zeros(0, np.int64)
     return d
 

@@ -407,7 +407,7 @@ def contact_min_gap(model: ExplicitModel) -> float:
     x = np.asarray(model.nodes, float)
     contact_search(x, d["slaves"], d["s_pair"], d["segs"], d["g_pair"], d["g_rad"], d["margin"] + d["p_depth"].max(),
                    d["head"], d["nxt"], d["cand"], d["ncand"], d["cell_h"])
-    g = signed_gaps_3d(x, d["slaves"], d["segs"], d["g_rad"], d["cand"], d["ncand"], d["seg_open"])
+    g = signed_gaps_3d(x, d["slaves"], d["segs"], d["g_rad"], d["cand"], d["ncand"], d["seg_open"], d["seg_sag"])
     g = g[g > -d["p_depth"][d["s_pair"]]]      # deeper than the capture depth: not a contact (other side)
     if g.size == 0:
         raise MeshError("helical pair: no contact node has a master facet within reach at the start position")

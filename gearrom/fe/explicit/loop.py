@@ -78,7 +78,7 @@ REFERENCE_ARRAYS = ("r_nodes", "r_ptr", "r_off", "r_M", "r_J", "r_mode", "r_spee
                     "r_tramp", "r_k", "r_c", "r_fixtr", "r_kb", "r_cb", "r_pos", "r_vel", "r_acc", "r_th",
                     "r_om", "r_al", "r_prev")
 CONTACT_ARRAYS = ("slaves", "s_pair", "segs", "g_pair", "g_k", "g_rad", "p_mu", "p_vreg", "p_depth", "head",
-                  "nxt", "cand", "ncand", "gap", "seg_open", "c_nodes", "c_usearch")
+                  "nxt", "cand", "ncand", "gap", "seg_open", "seg_sag", "c_nodes", "c_usearch")
 STATE_ARRAYS = ("u", "v", "a", "f")
 OUTPUT_ARRAYS = ("out_t", "out_E", "out_th", "out_om", "out_tq", "out_pos", "probes", "out_pu", "out_pv")
 
@@ -102,7 +102,7 @@ def _run_loop(nsteps, dt, out_every, t0, alpha, alpha_r, margin, cell_h,
     (r_nodes, r_ptr, r_off, r_M, r_J, r_mode, r_speed, r_ramp, r_torque, r_tramp, r_k, r_c, r_fixtr, r_kb, r_cb,
      r_pos, r_vel, r_acc, r_th, r_om, r_al, r_prev) = refs
     (slaves, s_pair, segs, g_pair, g_k, g_rad, p_mu, p_vreg, p_depth, head, nxt, cand, ncand, gap, seg_open,
-     c_nodes, c_usearch) = contact
+     seg_sag, c_nodes, c_usearch) = contact
     out_t, out_E, out_th, out_om, out_tq, out_pos, probes, out_pu, out_pv = outputs
     n, dim = u.shape
     nr = r_M.shape[0]
@@ -117,7 +117,7 @@ def _run_loop(nsteps, dt, out_every, t0, alpha, alpha_r, margin, cell_h,
     c_ord = np.empty((ns, cand.shape[1]), np.int64)
     c_out = np.empty((ns, 9))
     c_act = np.empty(ns, np.int64)
-    allowance = open_edge_allowance(g_rad) if dim == 3 else 0.0
+    allowance = open_edge_allowance(g_rad, seg_sag) if dim == 3 else 0.0
     for step in range(nsteps + 1):
         t = t0 + step * dt
         if step > 0:
@@ -230,7 +230,7 @@ def _run_loop(nsteps, dt, out_every, t0, alpha, alpha_r, margin, cell_h,
                         c_out[i, 0] = -1.0
                 for q in prange(nact):
                     contact_slave_3d(a, v, slaves, s_pair, segs, g_k, g_rad, cand, ncand, p_mu, p_vreg, p_depth,
-                                     seg_open, allowance, c_act[q], c_lb, c_ord, c_out)
+                                     seg_open, seg_sag, allowance, c_act[q], c_lb, c_ord, c_out)
                 epen, pfr = contact_scatter_3d(slaves, segs, c_out, f, gap)
         if step > 0:
             acc[1] += pfr * dt

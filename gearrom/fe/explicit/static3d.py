@@ -296,7 +296,7 @@ class StaticPair3D:
         contact_search(x, d["slaves"], d["s_pair"], d["segs"], d["g_pair"], d["g_rad"], d["margin"] + window,
                        d["head"], d["nxt"], d["cand"], d["ncand"], d["cell_h"])
         facet, xe, gap, nrm, ov, tdir = nearest_facets_3d(x, d["slaves"], d["segs"], d["g_rad"], d["cand"],
-                                                          d["ncand"], d["seg_open"])
+                                                          d["ncand"], d["seg_open"], d["seg_sag"])
         # penalty weight beyond an open edge (contact.edge_fade) and its slope [1/m]
         tol = OPEN_TOL * d["g_rad"][np.maximum(facet, 0)]
         t = np.clip(ov / tol, 0.0, 1.0)
