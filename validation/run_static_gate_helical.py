@@ -22,7 +22,10 @@ at the same torques. The limits and the verdict per penalty scale are
 within 5 %).
 
 Results: ``validation/static_gate_helical_<mesh tag>.json``; points already in the file are kept, so an
-interrupted study resumes.
+interrupted study resumes. The contact sees each flank facet with its sag restored (the flank between the
+facet's corners, :func:`gearrom.fe.explicit.contact.facet_sags`); ``*_flatfacets.json`` hold the same study
+with flat facets, whose chords lie up to about 1 um (0.3 mm outline) inside the flank: a load-independent
+offset of the static TE that shrinks with the square of the outline size.
 """
 from __future__ import annotations
 
@@ -48,6 +51,9 @@ from gearrom.validation.static_gate import static_gate
 HERE = Path(__file__).resolve().parent
 log = logging.getLogger("run_static_gate_helical")
 MODEL_PENALTY = 0.1   # the penalty scale the model is built with; every studied scale is solved from it
+#: the contact's view of the flank facets, recorded in the results (``*_flatfacets.json``: the same study with
+#: flat facets, before their sag was restored)
+FACETS = "curved: each facet's sag restored from its neighbours (gearrom.fe.explicit.contact.facet_sags)"
 
 
 def _tag(layers: int, outline: float, body: float, sector: float | None, sag: float | None = None) -> str:
@@ -66,6 +72,9 @@ def main(n: int = 16, torques=(60.0, 120.0), layers: int = 8, outline: float = 0
     out = HERE / (f"static_gate_helical_{_tag(layers, outline, body, sector, sag)}"
                   + ("_updated" if geometry_update else "") + ".json")
     data = json.loads(out.read_text()) if out.is_file() else {}
+    if data and data.get("facets") != FACETS:
+        raise SystemExit(f"{out} holds points of flat contact facets (no sag restored): rename it to "
+                         f"{out.stem}_flatfacets.json or delete it")
     if data.get("n_points", n) != n:
         raise SystemExit(f"{out} holds points of {data['n_points']} angles per mesh period, not {n}: use "
                          f"--points {data['n_points']} or another file")
@@ -73,7 +82,7 @@ def main(n: int = 16, torques=(60.0, 120.0), layers: int = 8, outline: float = 0
     keys = [f"{p:g}" for p in penalties]
     data.update(config="thesis-helical", integration="full", n_layers=layers, outline_size_mm=outline * 1e3,
                 body_size_mm=body * 1e3, grading_mm=grading * 1e3, sector_rad=sector, n_points=n,
-                outline_sag_um=None if sag is None else sag * 1e6, geometry_update=geometry_update,
+                outline_sag_um=None if sag is None else sag * 1e6, geometry_update=geometry_update, facets=FACETS,
                 solver="direct static solve of the explicit model (gearrom.fe.explicit.static3d)",
                 definition="static TE on the transverse line of action (explicit runs' convention: zero at rigid "
                            "first contact of the start position) at input angle j * mesh_period / n_points, "

@@ -6,7 +6,9 @@ the rack-generated transverse profile of the helical gear) is extruded over the 
 mid-face, ``-b/2 .. b/2``) turned about the gear axis by the helix twist
 :func:`gearrom.geometry.profile.twist` (counter-clockwise for a right hand). Between two layers the
 flank is the bilinear (ruled) facet through the twisted nodes: its sag from the helicoid, normal to
-the flank, is about ``r (dtwist)^2 / 8 sin(alpha_r)`` (reported as ``twist_sag_m``).
+the flank, is about ``r (dtwist)^2 / 8 sin(alpha_r)`` (reported as ``twist_sag_m``). The contact restores
+that sag and the transverse chords' (:func:`gearrom.fe.explicit.contact.facet_sags`), so that it meets
+the flank between the nodes, not the facets' chords.
 
 Set-up: the mid-face section (``z = 0``) is placed exactly as the spur pair of
 :mod:`gearrom.fe.explicit.gearpair` (same code: input tooth 0 on +x, output turned until its flank

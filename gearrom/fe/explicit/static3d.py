@@ -19,8 +19,8 @@ equilibrium at a given input angle and output torque, as the quasi-static LTCA s
   output torque. A penalty scale of ``inf`` drops the ``1 / k`` (hard contact, the penalty's limit).
 
 The TE is the explicit runs' (:func:`gearrom.fe.explicit.gearpair.transmission_error`): on the transverse
-line of action, zero at rigid first contact in the start position, so that it includes the faceted
-geometry's kinematic error at ``theta``.
+line of action, zero at rigid first contact in the start position, so that it includes the discretized
+geometry's kinematic error at ``theta`` (facets with their sag restored, as the explicit contact sees them).
 
 Compared with the explicit model's own dynamic relaxation (``validation/run_static_helical.py``), this
 solve has no residual vibration, no mass scaling and no time-step limit on the penalty, so that penalty,
