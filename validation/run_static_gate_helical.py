@@ -54,6 +54,7 @@ MODEL_PENALTY = 0.1   # the penalty scale the model is built with; every studied
 #: the contact's view of the flank facets, recorded in the results (``*_flatfacets.json``: the same study with
 #: flat facets, before their sag was restored)
 FACETS = "curved: each facet's sag restored from its neighbours (gearrom.fe.explicit.contact.facet_sags)"
+FLAT_FACETS = "flat: the bilinear facets' chords"
 
 
 def _tag(layers: int, outline: float, body: float, sector: float | None, sag: float | None = None) -> str:
@@ -64,7 +65,8 @@ def _tag(layers: int, outline: float, body: float, sector: float | None, sag: fl
 
 def main(n: int = 16, torques=(60.0, 120.0), layers: int = 8, outline: float = 0.3e-3, body: float = 2.5e-3,
          grading: float = 1.0e-3, sector: float | None = None, penalties=(0.1, 0.3, 1.0, 3.0, math.inf),
-         sag: float | None = None, geometry_update: bool = False) -> Path:
+         sag: float | None = None, geometry_update: bool = False, start_update: bool = True,
+         flat_facets_record: bool = False) -> Path:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")   # the seed pair's tip-fillet interference warning (see helicalpair)
         pair = load_config("thesis-helical").pair
@@ -72,7 +74,7 @@ def main(n: int = 16, torques=(60.0, 120.0), layers: int = 8, outline: float = 0
     out = HERE / (f"static_gate_helical_{_tag(layers, outline, body, sector, sag)}"
                   + ("_updated" if geometry_update else "") + ".json")
     data = json.loads(out.read_text()) if out.is_file() else {}
-    if data and data.get("facets") != FACETS:
+    if not flat_facets_record and data and data.get("facets") != FACETS:
         raise SystemExit(f"{out} holds points of flat contact facets (no sag restored): rename it to "
                          f"{out.stem}_flatfacets.json or delete it")
     if data.get("n_points", n) != n:
@@ -82,14 +84,15 @@ def main(n: int = 16, torques=(60.0, 120.0), layers: int = 8, outline: float = 0
     keys = [f"{p:g}" for p in penalties]
     data.update(config="thesis-helical", integration="full", n_layers=layers, outline_size_mm=outline * 1e3,
                 body_size_mm=body * 1e3, grading_mm=grading * 1e3, sector_rad=sector, n_points=n,
-                outline_sag_um=None if sag is None else sag * 1e6, geometry_update=geometry_update, facets=FACETS,
+                outline_sag_um=None if sag is None else sag * 1e6, geometry_update=geometry_update,
                 solver="direct static solve of the explicit model (gearrom.fe.explicit.static3d)",
                 definition="static TE on the transverse line of action (explicit runs' convention: zero at rigid "
                            "first contact of the start position) at input angle j * mesh_period / n_points, "
                            "per contact penalty scale (inf: hard contact)")
+    data.setdefault("facets", FLAT_FACETS if flat_facets_record else FACETS)
     todo = [j for j in range(n) if not all(f"{k}/{t:g}" in pts.get(str(j), {}) for k in keys for t in torques)]
     upd = data.setdefault("geometry_update_at_start", {})
-    upd_todo = [k for k in keys if k not in upd]
+    upd_todo = [k for k in keys if k not in upd] if start_update else []
     if todo or upd_todo:
         t0 = time.perf_counter()
         meshes = helical_meshes(pair, outline, body, grading, sag=sag)
@@ -110,7 +113,7 @@ def main(n: int = 16, torques=(60.0, 120.0), layers: int = 8, outline: float = 0
         # the points solve on the rigid placement's contact geometry; at the start position the state is also
         # re-solved on the deformed geometry (as the explicit contact acts), at the highest torque
         for k, p in zip(keys, penalties):
-            if k in upd:
+            if k in upd or not start_update:
                 continue
             _, _, te_upd = sp3.loaded_state(max(torques), p)
             upd[k] = {"torque_Nm": max(torques), "te_linear_um": pts["0"][f"{k}/{max(torques):g}"],
@@ -151,9 +154,11 @@ if __name__ == "__main__":
     ap.add_argument("--penalties", type=float, nargs="+", default=[0.1, 0.3, 1.0, 3.0, math.inf])
     ap.add_argument("--sag-um", type=float, default=None, help="refine the flank outline to chords within this "
                     "of the profile, um")
+    ap.add_argument("--no-start-update", action="store_true", help="skip the start position's re-solve on the "
+                    "deformed geometry (geometry_update_at_start)")
     ap.add_argument("--geometry-update", action="store_true", help="solve every point on its deformed contact "
                     "geometry (the explicit model's equilibrium; about 3 times the time); writes *_updated.json")
     a = ap.parse_args()
     main(a.points, tuple(a.torques), a.layers, a.outline_mm * 1e-3, a.body_mm * 1e-3, sector=a.sector,
          penalties=tuple(a.penalties), sag=None if a.sag_um is None else a.sag_um * 1e-6,
-         geometry_update=a.geometry_update)
+         geometry_update=a.geometry_update, start_update=not a.no_start_update)
