@@ -124,13 +124,23 @@ class GearStiffness:
         return (cls(X[:n1], hexes[(hexes < n1).all(1)], model.node_sets["bore_1"], lam, mu),
                 cls(X[n1:], hexes[(hexes >= n1).all(1)] - n1, model.node_sets["bore_2"] - n1, lam, mu))
 
-    def response(self, loads: sp.spmatrix) -> np.ndarray:
+    def response(self, loads) -> np.ndarray:
         """Displacements (free dofs x load cases) under nodal ``loads`` on the free dofs (free dofs x load
-        cases, gear frame)."""
-        rhs = np.asarray(loads.toarray(), float)
+        cases, gear frame; sparse or dense)."""
+        rhs = np.asarray(loads.toarray() if sp.issparse(loads) else loads, float)
         if self._pardiso is not None:
             return self._pardiso.solve(self._upper, rhs).reshape(rhs.shape)
         return self.lu.solve(rhs)
+
+    def compliance(self, loads: sp.spmatrix, block: int = 256) -> np.ndarray:
+        """``loads^T K^-1 loads`` (load cases x load cases) [m/N], solved ``block`` load cases at a time so that
+        the dense responses of many cases are never held at once."""
+        loads = sp.csc_matrix(loads)
+        n = loads.shape[1]
+        out = np.empty((n, n))
+        for j in range(0, n, block):
+            out[:, j:j + block] = loads.T @ self.response(loads[:, j:j + block])
+        return out
 
 
 @dataclasses.dataclass(frozen=True)
@@ -260,8 +270,8 @@ class StaticPair3D:
             pick = np.nonzero(reach & (gap < w))[0]
             if pick.size == 0:
                 raise SolverError(f"no contact candidate within {w * 1e6:.0f} um at theta = {theta:.6f} rad")
-            _, U, C, a = _system(x, n1, c2, (_rot_z(rot[0]), _rot_z(rot[1])), slaves, segs, facet, xe, nrm, pick,
-                                 self.stiffness)
+            P, C, a = _system(x, n1, c2, (_rot_z(rot[0]), _rot_z(rot[1])), slaves, segs, facet, xe, nrm, pick,
+                              self.stiffness)
             wk = np.maximum(fade[pick, 0], 1e-9)
             rows = [[solve_contact_lcp(C, a, gap[pick], float(tq), 1.0 / (gk[facet[pick]] * wk)) for tq in torques]
                     for gk in g_k]
@@ -274,7 +284,7 @@ class StaticPair3D:
             w *= 2
         else:
             raise SolverError(f"contact window grew beyond {w * 1e6:.0f} um at theta = {theta:.6f} rad")
-        state = dict(U=U, rot=rot) if keep_state else None
+        state = dict(P=P, rot=rot) if keep_state else None
         return rows, int(pick.size), state
 
     def _positions(self, rot, u_el=None, phi: float = 0.0) -> np.ndarray:
@@ -335,14 +345,14 @@ class StaticPair3D:
         n1, c2, d = self.n1, self.c2, self.d
         g_k = d["g_k"] * (scales[0] / self.p_model)
         rot = st["rot"]
-        u_el = [U @ f for U in st["U"]]           # elastic fields (free dofs) in the gears' frames
+        u_el = [stf.response(Pg @ f) for stf, Pg in zip(self.stiffness, st["P"])]   # elastic fields (free dofs)
         f_all = np.zeros(d["slaves"].size)        # normal force per slave, N (for the edge-fade forces)
         for it in range(iterations):
             x = self._positions(rot, u_el, phi)
             facet, xe, gap, nrm, reach, fade, tdir = self._nearest(x, self.window)
             pick = np.nonzero(reach & (gap < self.window))[0]
             R = (_rot_z(rot[0]), _rot_z(rot[1] + phi))
-            P, U, C, a = _system(x, n1, c2, R, d["slaves"], d["segs"], facet, xe, nrm, pick, self.stiffness)
+            P, C, a = _system(x, n1, c2, R, d["slaves"], d["segs"], facet, xe, nrm, pick, self.stiffness)
             opening = sum(Pg.T @ ue for Pg, ue in zip(P, u_el))
             # beyond an open edge the explicit contact's faded energy k w g^2 / 2 also pushes tangentially,
             # -k g^2 w' / 2 = -f^2 w' / (2 k w^2) along the overshoot: a load from the last forces
@@ -356,7 +366,7 @@ class StaticPair3D:
             phi += dphi
             f_all[:] = 0.0
             f_all[pick] = f
-            u_el = [Ug @ f + ut for Ug, ut in zip(U, Ut)]
+            u_el = [stf.response(Pg @ f) + ut for stf, Pg, ut in zip(self.stiffness, P, Ut)]
             log.info("static state at theta %.5f rad, geometry update %d: output turned by %.3g um more on the "
                      "line of action", theta, it + 1, dphi * self.pair.rb[1] * 1e6)
             if abs(dphi) * self.pair.rb[1] < tol and it > 0:
@@ -468,14 +478,13 @@ def _tangential(x, n1, c2, R, slaves, segs, facet, xe, tdir, pick, ft, stiffness
             if g == 1:
                 moment += ez @ np.cross(x[node] - c2, F * wgt)
     for g, st in enumerate(stiffness):
-        Ut[g] = st.response(sp.csc_matrix(loads[g][st.free][:, None])).ravel()
+        Ut[g] = st.response(loads[g][st.free])
     return Ut, float(moment)
 
 
 def _system(x, n1, c2, R, slaves, segs, facet, xe, nrm, pick, stiffness):
-    """Loads ``P`` (per gear: free dofs of its frame x candidates), responses ``U`` (free dofs x candidates),
-    the candidates' relative normal compliance ``C`` [m/N] and closure per output rotation ``a`` [m/rad]
-    at positions ``x``."""
+    """Loads ``P`` (per gear: free dofs of its frame x candidates, sparse), the candidates' relative normal
+    compliance ``C`` [m/N] and closure per output rotation ``a`` [m/rad] at positions ``x``."""
     nc = pick.size
     n_nodes = x.shape[0]
     loads = [([], [], []), ([], [], [])]   # per gear: rows, cols, values in its own frame
@@ -488,17 +497,15 @@ def _system(x, n1, c2, R, slaves, segs, facet, xe, nrm, pick, stiffness):
             cols.extend([c] * 3)
             vals.extend(R[g].T @ nrm[i] * wgt)   # the load in the gear's start frame
     C = np.zeros((nc, nc))
-    Ps, Us = [], []
+    Ps = []
     for g, st in enumerate(stiffness):
         rows, cols, vals = loads[g]
         n_g = n1 if g == 0 else n_nodes - n1
         P = sp.csc_matrix((vals, (rows, cols)), shape=(3 * n_g, nc))[st.free]
-        U = st.response(P)
-        C += P.T @ U
+        C += st.compliance(P)
         Ps.append(P)
-        Us.append(U)
     C = 0.5 * (C + C.T)
     a = _approach(x, slaves, segs, facet, xe, nrm, pick, n1, c2)
     if np.median(a) <= 0:
         raise SolverError("the output's counter-clockwise rotation does not close the contact (flank sets reversed?)")
-    return Ps, Us, C, a
+    return Ps, C, a
