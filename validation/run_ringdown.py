@@ -34,7 +34,7 @@ from gearrom.fe.explicit.driver import solve
 from gearrom.fe.explicit.gearmesh import gear_quad_mesh
 from gearrom.fe.explicit.driver import prepare
 from gearrom.fe.explicit.gearpair import (GearPairSetup, gear_pair_model, loaded_model, relaxed_state,
-                                          transmission_error)
+                                          stored_start_state, transmission_error)
 from gearrom.fe.explicit.helicalpair import helical_meshes, helical_pair_model
 
 HERE = Path(__file__).resolve().parent
@@ -134,16 +134,19 @@ def ringdown(pair, meshes, alpha: float, duration: float, relaxed=None, torque0:
              torque1: float = 132.0, skip: float = 0.05e-3, parallel: bool = True, mesh: dict = REFERENCE_MESH):
     setup = reference_setup(mesh, rpm_in=1e-4, torque_out=torque1, start="loaded", relative_damping=alpha)
     model, info = reference_model(pair, meshes, setup, mesh)
-    if relaxed is None:
-        relaxed = loaded_state(pair, model, info, torque0)
-    run = loaded_model(model, info, setup, relaxed)
-    t0 = time.perf_counter()
-    # checkpointed (a run takes tens of minutes on one core): running the script again resumes it
+    # checkpointed (a run takes tens of minutes on one core): running the script again resumes it; the
+    # loaded state is stored beside the checkpoint (a resumed run must start from the same state bit for bit)
     CHECKPOINTS.mkdir(exist_ok=True)
     kind = "helical_" if pair.is_helical else ""
+    checkpoint = CHECKPOINTS / f"ringdown_{kind}alpha{alpha:.10g}.ckpt.npz"
+    if relaxed is None:
+        relaxed = stored_start_state(checkpoint if pair.is_helical else None, ".loaded.npz", "value", model.nodes.shape,
+                                     torque0, lambda: loaded_state(pair, model, info, torque0))
+    run = loaded_model(model, info, setup, relaxed)
+    t0 = time.perf_counter()
     res = solve(run, duration, 2e-6, parallel=parallel, chunks=40,
-                prepared=prepare(run, 0.9, mesh.get("max_candidates")),
-                checkpoint=CHECKPOINTS / f"ringdown_{kind}alpha{alpha:.10g}.ckpt.npz", checkpoint_every=120.0)
+                prepared=prepare(run, 0.9, mesh.get("max_candidates")), checkpoint=checkpoint,
+                checkpoint_every=120.0)
     te = transmission_error(res, info["rb"], info["clearance_angle"])
     w = res.t >= skip
     fit = fit_ringdown(res.t[w], te[w])
