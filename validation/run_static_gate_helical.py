@@ -52,7 +52,7 @@ HERE = Path(__file__).resolve().parent
 log = logging.getLogger("run_static_gate_helical")
 MODEL_PENALTY = 0.1   # the penalty scale the model is built with; every studied scale is solved from it
 #: the contact's view of the flank facets, recorded in the results (``*_flatfacets.json``: the same study with
-#: flat facets, before their sag was restored)
+#: the facets taken flat, without their sag)
 FACETS = "curved: each facet's sag restored from its neighbours (gearrom.fe.explicit.contact.facet_sags)"
 FLAT_FACETS = "flat: the bilinear facets' chords"
 

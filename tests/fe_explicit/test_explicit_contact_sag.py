@@ -2,9 +2,8 @@
 
 Reference: the exact cylinder. A cylinder of radius R cut into N flat facets around its axis has its facet
 corners on the cylinder and the facet centres R (1 - cos(pi / N)) inside it (the mid-chord sag); a slave
-node at radius r has the true gap r - R. Flat facets see the node up to that sag farther out than it is (the
-helical flanks' 0.3 mm chords: about 1 um, a constant offset of the static TE); with the sag restored the
-gap is the cylinder's to second order in the facet angle, and a node sliding around at a constant radius
+node at radius r has the true gap r - R. Flat facets see the node up to that sag farther out than it is;
+with the sag restored the gap is the cylinder's to second order in the facet angle, and a node sliding around at a constant radius
 keeps a constant penalty energy (potential theory: the contact force, the energy's gradient, has no
 tangential part on the true surface).
 """
