@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import json
 import logging
-import math
 import os
 import platform
 import sys
@@ -55,31 +54,19 @@ PENALTY, HOURGLASS = 0.1, 0.1
 STAGGER = False
 
 
-def _damping() -> dict:
-    path = HERE / "ringdown_helical.json"
-    if not path.is_file():
-        sys.exit(f"{path} is missing: run 'python validation/run_ringdown.py --pair helical' first (it calibrates "
-                 "the damping)")
-    d = json.loads(path.read_text())
-    if not d.get("within_10_percent"):
-        sys.exit(f"{path}: the ring-down did not reach its target damping ratio; rerun it")
-    return d
-
-
 def main_loaded(rpm: float, periods: int = 10, settle_periods: int | None = None, parallel: bool = False,
                 wall_limit: float | None = None) -> Path:
     """Run one speed from the loaded static state; write ``helical_<rpm>rpm_loaded.npz/.json``."""
-    from run_ringdown import reference_meshes, reference_setup
+    from run_ringdown import calibration, reference_meshes, reference_setup, settling
 
-    cal = _damping()
+    cal = calibration("helical")
     mesh = cal["mesh"]
     pair = load_config("thesis-helical").pair
     meshes = reference_meshes(pair, mesh)
     f_mesh = rpm / 60 * pair.z[0]
-    alpha, zeta, f_mode = cal["alpha_r_per_s"], cal["zeta_target"], cal["runs"][-1]["frequency_Hz"]
-    tau = 1.0 / (zeta * 2 * math.pi * f_mode)
+    alpha, zeta, f_mode, tau, settle_default = settling(cal, f_mesh)
     if settle_periods is None:
-        settle_periods = math.ceil(5 * tau * f_mesh)
+        settle_periods = settle_default
     t_end = (settle_periods + periods) / f_mesh
     setup = reference_setup(mesh, rpm_in=rpm, torque_out=120.0, mu=0.0, start="loaded", relative_damping=alpha)
     stem = HERE / f"helical_{int(rpm)}rpm_loaded"

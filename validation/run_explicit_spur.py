@@ -30,7 +30,6 @@ from __future__ import annotations
 import argparse
 import json
 import logging
-import math
 import os
 import platform
 import sys
@@ -55,16 +54,6 @@ def _reference_meshes(pair, cal: dict):
     return reference_meshes(pair, cal["mesh"])
 
 
-def _damping() -> dict:
-    path = HERE / "ringdown_spur.json"
-    if not path.is_file():
-        sys.exit(f"{path} is missing: run validation/run_ringdown.py first (it calibrates the damping)")
-    d = json.loads(path.read_text())
-    if not d.get("within_10_percent"):
-        sys.exit(f"{path}: the ring-down did not reach its target damping ratio; rerun it")
-    return d
-
-
 def main(rpm: float, outline: float = 0.15e-3, body: float = 1.5e-3, periods: int = 10, settle_periods: int | None = None,
          ramp: float = 0.3e-3, mass_scaling_dt: float = 0.0, integration: str = "reduced",
          parallel: bool = False, start: str = "gap", wall_limit: float | None = None) -> Path:
@@ -72,13 +61,14 @@ def main(rpm: float, outline: float = 0.15e-3, body: float = 1.5e-3, periods: in
     f_mesh = rpm / 60 * pair.z[0]
     extra = {}
     if start == "loaded":
-        cal = _damping()
+        from run_ringdown import calibration, settling
+
+        cal = calibration("spur")
         meshes = _reference_meshes(pair, cal)
         outline, body, mass_scaling_dt = (cal["mesh"][k] for k in ("outline_size_m", "body_size_m", "mass_scaling_dt_s"))
-        alpha, zeta, f_mode = cal["alpha_r_per_s"], cal["zeta_target"], cal["runs"][-1]["frequency_Hz"]
-        tau = 1.0 / (zeta * 2 * math.pi * f_mode)
+        alpha, zeta, f_mode, tau, settle_default = settling(cal, f_mesh)
         if settle_periods is None:
-            settle_periods = math.ceil(5 * tau * f_mesh)
+            settle_periods = settle_default
         ramp = 0.0
         setup = GearPairSetup(rpm_in=rpm, torque_out=120.0, mu=0.0, integration=integration, start="loaded",
                               relative_damping=alpha, mass_scaling_dt=mass_scaling_dt,

@@ -21,8 +21,10 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import math
 import os
 import platform
+import sys
 import time
 from pathlib import Path
 
@@ -69,6 +71,28 @@ REFERENCE_MESH_HELICAL = {"outline_size_m": 0.15e-3, "body_size_m": 2.5e-3, "gra
                           "sag_m": None, "mass_scaling_dt_s": 2.2e-8, "penalty_scale": 3.0,
                           "hourglass_stiffness": 0.1, "max_candidates": 32}
 REFERENCE = {"spur": REFERENCE_MESH, "helical": REFERENCE_MESH_HELICAL}
+
+
+def calibration(kind: str) -> dict:
+    """The stored ring-down of the ``kind`` reference model (``validation/ringdown_<kind>.json``); exits with the
+    command to run when it is missing or missed its target ratio."""
+    path = HERE / f"ringdown_{kind}.json"
+    if not path.is_file():
+        sys.exit(f"{path} is missing: run 'python validation/run_ringdown.py --pair {kind}' first (it calibrates "
+                 "the damping)")
+    d = json.loads(path.read_text())
+    if not d.get("within_10_percent"):
+        sys.exit(f"{path}: the ring-down did not reach its target damping ratio; rerun it")
+    return d
+
+
+def settling(cal: dict, f_mesh: float) -> tuple[float, float, float, float, int]:
+    """``(alpha_r [1/s], zeta, mesh-mode frequency [Hz], decay time 1 / (zeta w) [s], mesh periods covering five
+    decay times)`` of a ring-down calibration at mesh frequency ``f_mesh`` [Hz]: after five decay times the
+    start transient is below 1 % of its size."""
+    alpha, zeta, f_mode = cal["alpha_r_per_s"], cal["zeta_target"], cal["runs"][-1]["frequency_Hz"]
+    tau = 1.0 / (zeta * 2 * math.pi * f_mode)
+    return alpha, zeta, f_mode, tau, math.ceil(5 * tau * f_mesh)
 
 
 def reference_meshes(pair, mesh: dict = REFERENCE_MESH):
@@ -141,8 +165,8 @@ def ringdown(pair, meshes, alpha: float, duration: float, relaxed=None, torque0:
     kind = "helical_" if pair.is_helical else ""
     checkpoint = CHECKPOINTS / f"ringdown_{kind}alpha{alpha:.10g}.ckpt.npz"
     if relaxed is None:
-        relaxed = stored_start_state(checkpoint if pair.is_helical else None, ".loaded.npz", "value", model.nodes.shape,
-                                     torque0, lambda: loaded_state(pair, model, info, torque0))
+        relaxed = stored_start_state(checkpoint, ".loaded.npz", "value", model.nodes.shape, torque0,
+                                     lambda: loaded_state(pair, model, info, torque0))
     run = loaded_model(model, info, setup, relaxed)
     t0 = time.perf_counter()
     res = solve(run, duration, 2e-6, parallel=parallel, chunks=40,

@@ -458,6 +458,23 @@ def open_edge_allowance(g_rad, seg_sag):
 CREASE_ANGLE = math.radians(12.0)
 
 
+def facet_neighbours(segs: np.ndarray, g_pair: np.ndarray) -> np.ndarray:
+    """Per 3D facet and border edge ``e`` (nodes ``e``, ``e + 1``, see :func:`facet_closest`): a facet of the same
+    contact pair that shares that edge, -1 when none (an edge of the master surface). ``(nseg, 4)``."""
+    segs = np.asarray(segs, np.int64)
+    ed = np.stack([np.sort(np.stack([segs[:, e], segs[:, (e + 1) % 4]], axis=1), axis=1) for e in range(4)], axis=1)
+    keys = np.concatenate([np.repeat(np.asarray(g_pair, np.int64), 4)[:, None], ed.reshape(-1, 2)], axis=1)
+    _, inv = np.unique(keys, axis=0, return_inverse=True)
+    inv = inv.ravel()
+    owner = np.repeat(np.arange(len(segs)), 4)
+    nbr = np.full(4 * len(segs), -1, np.int64)
+    order = np.argsort(inv, kind="stable")
+    same = np.nonzero(inv[order][1:] == inv[order][:-1])[0]
+    nbr[order[same]] = owner[order[same + 1]]
+    nbr[order[same + 1]] = owner[order[same]]
+    return nbr.reshape(-1, 4)
+
+
 def facet_sags(x: np.ndarray, segs: np.ndarray, g_pair: np.ndarray) -> np.ndarray:
     """Sag [m] of the smooth surface that bilinear facets discretize, per facet and parametric direction.
 
@@ -481,20 +498,7 @@ def facet_sags(x: np.ndarray, segs: np.ndarray, g_pair: np.ndarray) -> np.ndarra
     c = 0.25 * (-xs[:, 0] - xs[:, 1] + xs[:, 2] + xs[:, 3])
     nrm = np.cross(a, c)
     nrm /= np.linalg.norm(nrm, axis=1)[:, None]
-    # neighbour across each edge e (nodes e, e + 1): the other facet of the same pair with that edge
-    ed = np.stack([np.sort(np.stack([segs[:, e], segs[:, (e + 1) % 4]], axis=1), axis=1) for e in range(4)], axis=1)
-    keys = np.concatenate([np.repeat(np.asarray(g_pair, np.int64), 4)[:, None], ed.reshape(-1, 2)], axis=1)
-    _, inv = np.unique(keys, axis=0, return_inverse=True)
-    inv = inv.ravel()
-    owner = np.repeat(np.arange(len(segs)), 4)
-    nbr = np.full(4 * len(segs), -1, np.int64)
-    order = np.argsort(inv, kind="stable")
-    grp = inv[order]
-    same = np.nonzero(grp[1:] == grp[:-1])[0]
-    for i, j in zip(order[same], order[same + 1]):
-        nbr[i] = owner[j]
-        nbr[j] = owner[i]
-    nbr = nbr.reshape(-1, 4)
+    nbr = facet_neighbours(segs, g_pair)
     cos_crease = math.cos(CREASE_ANGLE)
     for col, (e_lo, e_hi, tang) in enumerate(((3, 1, a), (0, 2, c))):
         kap = np.zeros(len(segs))

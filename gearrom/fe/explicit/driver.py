@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from gearrom.errors import ConfigError, ModelError, RunInterrupted
-from gearrom.fe.explicit.contact import facet_sags
+from gearrom.fe.explicit.contact import facet_neighbours, facet_sags
 from gearrom.fe.explicit.elements import element_type
 from gearrom.fe.explicit.geometry import color_elements, nodal_omega2
 from gearrom.fe.explicit.loop import (CONTACT_ARRAYS, ELEMENT_ARRAYS, LOAD_ARRAYS, NE_OUT, NODE_ARRAYS, OUTPUT_ARRAYS,
@@ -286,14 +286,9 @@ def _initial_state(model: ExplicitModel, d: dict):
 def _open_edges(segs: np.ndarray, g_pair: np.ndarray) -> np.ndarray:
     """Per segment, bit ``e`` set when its border edge ``e`` (nodes ``e``, ``e + 1``; 3D facets) belongs to no
     other segment of the same contact pair: an edge of the master surface. 2D segments get 0."""
-    out = np.zeros(len(segs), np.int64)
     if segs.ndim != 2 or segs.shape[1] != 4 or len(segs) == 0:
-        return out
-    ed = np.stack([np.sort(np.stack([segs[:, e], segs[:, (e + 1) % 4]], axis=1), axis=1) for e in range(4)], axis=1)
-    keys = np.concatenate([np.repeat(g_pair, 4)[:, None], ed.reshape(-1, 2)], axis=1)
-    _, inv, cnt = np.unique(keys, axis=0, return_inverse=True, return_counts=True)
-    single = (cnt[inv.ravel()] == 1).reshape(-1, 4)
-    return (single * (1 << np.arange(4))).sum(axis=1).astype(np.int64)
+        return np.zeros(len(segs), np.int64)
+    return ((facet_neighbours(segs, g_pair) < 0) * (1 << np.arange(4))).sum(axis=1).astype(np.int64)
 
 
 #: loop state saved in a checkpoint (the prepared contact search buffers included: the search only

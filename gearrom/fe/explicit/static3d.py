@@ -38,7 +38,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
 from gearrom.errors import SolverError
-from gearrom.fe.explicit.contact import OPEN_TOL, contact_search, nearest_facets_3d, shape_q4
+from gearrom.fe.explicit.contact import OPEN_TOL, contact_search, edge_fade, nearest_facets_3d, shape_q4
 from gearrom.fe.explicit.geometry import full_integration_data
 
 log = logging.getLogger(__name__)
@@ -307,10 +307,9 @@ class StaticPair3D:
                        d["head"], d["nxt"], d["cand"], d["ncand"], d["cell_h"])
         facet, xe, gap, nrm, ov, tdir = nearest_facets_3d(x, d["slaves"], d["segs"], d["g_rad"], d["cand"],
                                                           d["ncand"], d["seg_open"], d["seg_sag"])
-        # penalty weight beyond an open edge (contact.edge_fade) and its slope [1/m]
-        tol = OPEN_TOL * d["g_rad"][np.maximum(facet, 0)]
-        t = np.clip(ov / tol, 0.0, 1.0)
-        fade = np.column_stack([1.0 - t * t * (3.0 - 2.0 * t), 6.0 * t * (t - 1.0) / tol])
+        # penalty weight beyond an open edge and its slope [1/m], as the explicit contact takes them
+        w, dw = edge_fade(ov, OPEN_TOL * d["g_rad"][np.maximum(facet, 0)])
+        fade = np.column_stack([w, dw])
         return facet, xe, gap, nrm, (facet >= 0) & (gap > -self.depth), fade, tdir
 
     def equilibrium(self, theta: float, torque: float, penalty_scale: float | None = None, iterations: int = 8,
@@ -459,51 +458,46 @@ def _approach(x, slaves, segs, facet, xe, nrm, idx, n1, c2) -> np.ndarray:
 
 def _tangential(x, n1, c2, R, slaves, segs, facet, xe, tdir, pick, ft, stiffness):
     """Known contact forces ``ft`` [N] along ``tdir`` (the edge-fade forces): their elastic responses (per
-    gear, free dofs), their counter-clockwise moment on the output about its centre [N m]."""
+    gear, free dofs), their counter-clockwise moment on the output about its centre [N m] (``-sum a_t ft``
+    with ``a_t`` the closure rate along ``tdir``, as the normal forces' moment is ``-sum a f``)."""
     loaded = np.nonzero(ft != 0.0)[0]
-    Ut = [np.zeros(st.n_dofs) for st in stiffness]
     if loaded.size == 0:
-        return Ut, 0.0
-    ez = np.array([0.0, 0.0, 1.0])
-    n_nodes = x.shape[0]
-    loads = [np.zeros(3 * n1), np.zeros(3 * (n_nodes - n1))]
-    moment = 0.0
-    for c in loaded:
-        i = pick[c]
-        N = np.asarray(shape_q4(xe[i, 0], xe[i, 1]))
-        F = ft[c] * tdir[i]
-        for node, wgt in [(slaves[i], 1.0)] + [(q, -N[k]) for k, q in enumerate(segs[facet[i]])]:
-            g = 0 if node < n1 else 1
-            loads[g][3 * (node - g * n1) + np.arange(3)] += R[g].T @ F * wgt
-            if g == 1:
-                moment += ez @ np.cross(x[node] - c2, F * wgt)
-    for g, st in enumerate(stiffness):
-        Ut[g] = st.response(loads[g][st.free])
-    return Ut, float(moment)
+        return [np.zeros(st.n_dofs) for st in stiffness], 0.0
+    idx = pick[loaded]
+    Pt = _unit_loads(x.shape[0], n1, R, slaves, segs, facet, xe, tdir, idx, stiffness)
+    Ut = [st.response(P @ ft[loaded]) for st, P in zip(stiffness, Pt)]
+    moment = -float(_approach(x, slaves, segs, facet, xe, tdir, idx, n1, c2) @ ft[loaded])
+    return Ut, moment
 
 
-def _system(x, n1, c2, R, slaves, segs, facet, xe, nrm, pick, stiffness):
-    """Loads ``P`` (per gear: free dofs of its frame x candidates, sparse), the candidates' relative normal
-    compliance ``C`` [m/N] and closure per output rotation ``a`` [m/rad] at positions ``x``."""
-    nc = pick.size
-    n_nodes = x.shape[0]
+def _unit_loads(n_nodes, n1, R, slaves, segs, facet, xe, dirs, idx, stiffness) -> list:
+    """Per gear (free dofs of its start frame x slaves ``idx``, sparse): a unit force along ``dirs[i]`` on
+    slave ``i`` and minus it on its facet's nodes by their shape functions, with the gears turned by ``R``."""
     loads = [([], [], []), ([], [], [])]   # per gear: rows, cols, values in its own frame
-    for c, i in enumerate(pick):
+    for c, i in enumerate(idx):
         N = np.asarray(shape_q4(xe[i, 0], xe[i, 1]))
         for node, wgt in [(slaves[i], 1.0)] + [(q, -N[k]) for k, q in enumerate(segs[facet[i]])]:
             g = 0 if node < n1 else 1
             rows, cols, vals = loads[g]
             rows.extend(3 * (node - (0 if g == 0 else n1)) + np.arange(3))
             cols.extend([c] * 3)
-            vals.extend(R[g].T @ nrm[i] * wgt)   # the load in the gear's start frame
-    C = np.zeros((nc, nc))
-    Ps = []
+            vals.extend(R[g].T @ dirs[i] * wgt)   # the load in the gear's start frame
+    out = []
     for g, st in enumerate(stiffness):
         rows, cols, vals = loads[g]
         n_g = n1 if g == 0 else n_nodes - n1
-        P = sp.csc_matrix((vals, (rows, cols)), shape=(3 * n_g, nc))[st.free]
+        out.append(sp.csc_matrix((vals, (rows, cols)), shape=(3 * n_g, idx.size))[st.free])
+    return out
+
+
+def _system(x, n1, c2, R, slaves, segs, facet, xe, nrm, pick, stiffness):
+    """Loads ``P`` (per gear: free dofs of its frame x candidates, sparse), the candidates' relative normal
+    compliance ``C`` [m/N] and closure per output rotation ``a`` [m/rad] at positions ``x``."""
+    nc = pick.size
+    Ps = _unit_loads(x.shape[0], n1, R, slaves, segs, facet, xe, nrm, pick, stiffness)
+    C = np.zeros((nc, nc))
+    for P, st in zip(Ps, stiffness):
         C += st.compliance(P)
-        Ps.append(P)
     C = 0.5 * (C + C.T)
     a = _approach(x, slaves, segs, facet, xe, nrm, pick, n1, c2)
     if np.median(a) <= 0:
