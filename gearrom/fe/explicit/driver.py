@@ -1,6 +1,7 @@
 """Assemble the flat arrays of an :class:`ExplicitModel` and run the compiled loop."""
 from __future__ import annotations
 
+import json
 import logging
 import math
 import time
@@ -301,14 +302,8 @@ CHECKPOINT_FORMAT = "gearrom.explicit-checkpoint/2"
 _LEGACY_FORMAT = "gearrom.explicit-checkpoint/1"
 
 
-def fingerprint(model: ExplicitModel, **settings) -> str:
-    """SHA-1 of every field of ``model`` and of the run ``settings``: a checkpoint resumes only the run
-    that wrote it."""
-    import dataclasses
-    import hashlib
-
-    h = hashlib.sha1()
-
+def _feeder(h):
+    """A function that feeds a value (arrays, mappings, sequences, scalars) into the hash ``h``."""
     def feed(value) -> None:
         if isinstance(value, np.ndarray):
             h.update(str((value.dtype.str, value.shape)).encode())
@@ -323,7 +318,17 @@ def fingerprint(model: ExplicitModel, **settings) -> str:
         else:
             h.update(repr(value).encode())
         h.update(b"|")
+    return feed
 
+
+def fingerprint(model: ExplicitModel, **settings) -> str:
+    """SHA-1 of every field of ``model`` and of the run ``settings``: a checkpoint resumes only the run
+    that wrote it."""
+    import dataclasses
+    import hashlib
+
+    h = hashlib.sha1()
+    feed = _feeder(h)
     for fld in dataclasses.fields(model):
         h.update(fld.name.encode())
         feed(getattr(model, fld.name))
@@ -331,8 +336,36 @@ def fingerprint(model: ExplicitModel, **settings) -> str:
     return h.hexdigest()
 
 
+def field_fingerprints(model: ExplicitModel, **settings) -> dict[str, str]:
+    """SHA-1 of each field of ``model`` and of each run setting (``setting:<name>``): what a refused
+    checkpoint names as differing."""
+    import dataclasses
+    import hashlib
+
+    out = {}
+    items = [(f.name, getattr(model, f.name)) for f in dataclasses.fields(model)]
+    items += [(f"setting:{k}", v) for k, v in sorted(settings.items())]
+    for name, value in items:
+        h = hashlib.sha1()
+        _feeder(h)(value)
+        out[name] = h.hexdigest()
+    return out
+
+
+def _differing(stored: str, current: dict[str, str]) -> str:
+    """Names of the fields whose fingerprints differ between a checkpoint's stored ``fields`` (JSON) and the run."""
+    import json
+
+    try:
+        old = json.loads(stored)
+    except ValueError:
+        return "unknown (the checkpoint stores no per-field fingerprints)"
+    names = sorted(k for k in set(old) | set(current) if old.get(k) != current.get(k))
+    return ", ".join(names) if names else "none by field (the combined key differs)"
+
+
 def _save_checkpoint(path: Path, state: dict, out: dict, row: int, chunk: int, t0: float, wall: float,
-                     key: str, bounds: np.ndarray) -> None:
+                     key: str, bounds: np.ndarray, fields: str = "{}") -> None:
     from gearrom.fe.cache import atomic_path
 
     arrays = {f"state_{k}": state[k] for k in _STATE}
@@ -340,11 +373,11 @@ def _save_checkpoint(path: Path, state: dict, out: dict, row: int, chunk: int, t
     with atomic_path(path) as tmp:
         np.savez(tmp, format=np.array(CHECKPOINT_FORMAT), key=np.array(key), row=np.array(row),
                  chunk=np.array(chunk), bounds=np.asarray(bounds[:chunk + 1], np.int64), t0=np.array(t0),
-                 wall=np.array(wall), **arrays)
+                 wall=np.array(wall), fields=np.array(fields), **arrays)
 
 
 def _load_checkpoint(path: Path, state: dict, out: dict, key: str, legacy_key: str,
-                     bounds: np.ndarray) -> tuple[int, int, float, float, bool]:
+                     bounds: np.ndarray, fields: dict | None = None) -> tuple[int, int, float, float, bool]:
     """Restore ``state`` and ``out`` in place from ``path``; return (row, next chunk, t0, wall so far, whether
     the file is of an older format than :data:`CHECKPOINT_FORMAT`).
 
@@ -365,8 +398,9 @@ def _load_checkpoint(path: Path, state: dict, out: dict, key: str, legacy_key: s
                 raise ConfigError(f"checkpoint {path}: format {fmt!r}, expected {CHECKPOINT_FORMAT!r}")
             else:
                 if str(z["key"]) != key:
+                    which = _differing(str(z["fields"]) if "fields" in z else "", fields or {})
                     raise ConfigError(f"checkpoint {path} was written by a different model or run settings "
-                                      "(fingerprint mismatch); delete it or run without resume")
+                                      f"(fingerprint mismatch in: {which}); delete it or run without resume")
                 done = z["bounds"]
                 if chunk >= len(bounds) or not np.array_equal(bounds[:chunk + 1], done):
                     raise ConfigError(
@@ -495,17 +529,19 @@ def solve(model: ExplicitModel, t_end: float, sample_period: float | None = None
         parallel = model.elements.shape[0] >= 20000
     run_loop = run_loop_parallel if parallel else run_loop_serial
     row, first, t0, wall_before = 0, 0, 0.0, 0.0
-    key = ""
+    key, fields = "", {}
     if checkpoint is not None:
         checkpoint = Path(checkpoint)
-        key = fingerprint(model, sample_period=sample_period, dt=step_dt, probes=probes, parallel=bool(parallel))
+        run_settings = dict(sample_period=sample_period, dt=step_dt, probes=probes, parallel=bool(parallel))
+        key = fingerprint(model, **run_settings)
+        fields = field_fingerprints(model, **run_settings)
         if resume and checkpoint.is_file():
             legacy = fingerprint(model, t_end=t_end, sample_period=sample_period, dt=step_dt, chunks=chunks,
                                  probes=probes, parallel=bool(parallel))
-            row, first, t0, wall_before, older = _load_checkpoint(checkpoint, st, out, key, legacy, bounds)
+            row, first, t0, wall_before, older = _load_checkpoint(checkpoint, st, out, key, legacy, bounds, fields)
             log.info("explicit: resumed from %s at t = %.4e s (chunk %d of %d)", checkpoint, t0, first, chunks)
             if first == chunks and older:  # a finished run of the older format: stored extendable
-                _save_checkpoint(checkpoint, st, out, row, first, t0, wall_before, key, bounds)
+                _save_checkpoint(checkpoint, st, out, row, first, t0, wall_before, key, bounds, json.dumps(fields))
     # the loop's array groups (the state arrays are updated in place; the output rows change per chunk)
     src = {**d, **st, "X": model.nodes, "probes": probes}
     fixed = tuple(tuple(src[k] for k in names) for names in
@@ -536,10 +572,12 @@ def solve(model: ExplicitModel, t_end: float, sample_period: float | None = None
                  "(strain + contact %.3g J, external work %.3g J)", t0, t_end, 100.0 * bounds[c + 1] / n_out_total,
                  wall_before + now - wall0, eta, e[9], e[1] + e[2] + e[4], e[8])
         if checkpoint is not None and (now - last_save >= checkpoint_every or c == chunks - 1):
-            _save_checkpoint(checkpoint, st, out, row, c + 1, t0, wall_before + now - wall0, key, bounds)
+            _save_checkpoint(checkpoint, st, out, row, c + 1, t0, wall_before + now - wall0, key, bounds,
+                             json.dumps(fields))
             last_save = time.perf_counter()
         if wall_limit is not None and now - wall0 >= wall_limit and c < chunks - 1:
-            _save_checkpoint(checkpoint, st, out, row, c + 1, t0, wall_before + now - wall0, key, bounds)
+            _save_checkpoint(checkpoint, st, out, row, c + 1, t0, wall_before + now - wall0, key, bounds,
+                             json.dumps(fields))
             raise RunInterrupted(f"explicit run stopped at t = {t0:.4e} of {t_end:.4e} s (wall limit "
                                  f"{wall_limit:g} s); checkpoint {checkpoint}: run again to resume")
     wall = wall_before + time.perf_counter() - wall0

@@ -36,8 +36,8 @@ from gearrom.fe.explicit.result import ExplicitResult
 
 log = logging.getLogger(__name__)
 
-__all__ = ["GearPairSetup", "gear_pair_model", "loaded_model", "relaxed_state", "run_gear_pair", "transmission_error",
-           "triangles_to_quads"]
+__all__ = ["GearPairSetup", "gear_pair_model", "loaded_model", "relaxed_state", "run_gear_pair", "stored_meshes",
+           "stored_start_state", "transmission_error", "triangles_to_quads"]
 
 
 def triangles_to_quads(points: np.ndarray, triangles: np.ndarray):
@@ -381,6 +381,37 @@ def stored_start_state(checkpoint, suffix: str, value_key: str, shape, torque: f
         with atomic_path(store) as tmp:
             np.savez(tmp, u=state[0], theta=state[1], torque=torque, **{value_key: state[2]})
     return state
+
+
+def stored_meshes(path: str | Path, key: str, build) -> list:
+    """The gear meshes ``[(nodes, quads, bore), ...]`` kept in ``path`` (npz) under ``key``.
+
+    A long run resumed on another machine or with another gmsh build must rebuild its model bit for bit,
+    and gmsh's quad meshes are not reproducible across builds (nor always between processes): the
+    meshes of a checkpointed run are therefore stored once and read back. ``key`` names what the
+    meshes were made from (the pair and the mesh settings); a stored file of another key is replaced by
+    ``build()``'s meshes (logged), a missing one is written (atomically).
+    """
+    path = Path(path)
+    if path.is_file():
+        try:
+            with np.load(path) as z:
+                if str(z["key"]) == key:
+                    n = int(z["n_gears"])
+                    return [(z[f"nodes{i}"].copy(), z[f"quads{i}"].copy(), z[f"bore{i}"].copy()) for i in range(n)]
+                log.warning("%s holds meshes of other settings (key %s, wanted %s): rebuilt and replaced", path,
+                            str(z["key"]), key)
+        except (OSError, KeyError, ValueError) as exc:
+            raise ConfigError(f"stored meshes {path} cannot be read ({exc}); delete the file to rebuild them") from None
+    meshes = build()
+    from gearrom.fe.cache import atomic_path
+
+    arrays = {}
+    for i, (nodes, quads, bore) in enumerate(meshes):
+        arrays.update({f"nodes{i}": np.asarray(nodes), f"quads{i}": np.asarray(quads), f"bore{i}": np.asarray(bore)})
+    with atomic_path(path) as tmp:
+        np.savez_compressed(tmp, key=np.array(key), n_gears=np.array(len(meshes)), **arrays)
+    return [tuple(np.asarray(a) for a in m) for m in meshes]
 
 
 def run_gear_pair(pair, meshes, setup: GearPairSetup, t_end: float, sample_period: float,

@@ -89,7 +89,7 @@ def _rot(p: np.ndarray, c, angle: float) -> np.ndarray:
 
 
 def helical_meshes(pair, outline_size: float, body_size: float | None = None, grading: float = 2e-3,
-                   project: bool = True, sag: float | None = None):
+                   project: bool = True, sag: float | None = None, periodic: bool = False):
     """Transverse Q4 meshes (nodes, quads, bore) of both gears (:func:`gear_quad_mesh`).
 
     ``gear_quad_mesh`` resamples the outline at twice the outline size and halves the segments, so
@@ -102,17 +102,23 @@ def helical_meshes(pair, outline_size: float, body_size: float | None = None, gr
     until every element stays valid, and then moved the last sub-um onto the dense outline.
     ``sag`` (m): refine the flank outline until its chords stay within ``sag`` of the profile
     (``gear_quad_mesh``'s option; the projection then always takes the second way).
+    ``periodic``: every tooth gets the same section (``gear_quad_mesh``'s option: one tooth sector
+    meshed and copied), and the dense outline the nodes are projected on is sampled alike on every
+    tooth, so the projected sections stay copies of one another. A whole-gear mesh gives each tooth its
+    own compliance, which a dynamic record carries as shaft-order content and drift.
     """
     from gearrom.fe.explicit.gearmesh import gear_quad_mesh
 
     out = []
     for i in (0, 1):
-        nodes, quads, bore = gear_quad_mesh(pair, i, outline_size, body_size, grading, project=False, sag=sag)
+        nodes, quads, bore = gear_quad_mesh(pair, i, outline_size, body_size, grading, project=False, sag=sag,
+                                            periodic=periodic)
         if project:
-            moved = _project_outline(pair, i, nodes, quads, bore)
+            moved = _project_outline(pair, i, nodes, quads, bore, periodic=periodic)
             if sag is not None or _inverted(moved, quads):
-                nodes, quads, bore = gear_quad_mesh(pair, i, outline_size, body_size, grading, project=True, sag=sag)
-                moved = _project_outline(pair, i, nodes, quads, bore)
+                nodes, quads, bore = gear_quad_mesh(pair, i, outline_size, body_size, grading, project=True, sag=sag,
+                                                    periodic=periodic)
+                moved = _project_outline(pair, i, nodes, quads, bore, periodic=periodic)
                 if _inverted(moved, quads):
                     raise MeshError(f"gear {i}: projecting the outline onto the profile inverts an element at "
                                     f"outline size {outline_size * 1e3:g} mm; try another outline or body size")
@@ -130,19 +136,24 @@ def _inverted(nodes: np.ndarray, quads: np.ndarray) -> bool:
 
 
 def _project_outline(pair, i: int, nodes: np.ndarray, quads: np.ndarray, bore: np.ndarray,
-                     spacing: float = 1e-6, max_move: float = 30e-6) -> np.ndarray:
-    """Outline (non-bore boundary) nodes moved to the nearest point of the dense generated outline."""
+                     spacing: float = 1e-6, max_move: float = 30e-6, periodic: bool = False) -> np.ndarray:
+    """Outline (non-bore boundary) nodes moved to the nearest point of the dense generated outline
+    (``periodic``: sampled alike on every tooth)."""
     from scipy.spatial import cKDTree
 
-    from gearrom.fe.explicit.gearmesh import closed_outline, resample_closed
+    from gearrom.fe.explicit.gearmesh import closed_outline, project_onto, resample_closed
 
-    dense = resample_closed(closed_outline(pair, i), spacing)
+    dense = resample_closed(closed_outline(pair, i), spacing, multiple=pair.gears[i].z if periodic else 1)
     b = set(int(k) for k in bore)
     ids = np.array(sorted(set(np.unique(boundary_segments(quads)).tolist()) - b))
     dist, j = cKDTree(dense).query(nodes[ids])
+    target = dense[j]
+    if periodic:   # nearest point on the dense polyline: continuous in the node, so alike on every tooth
+        target = project_onto(nodes[ids], dense)
+        dist = np.hypot(*(target - nodes[ids]).T)
     move = dist < max_move          # chord midpoints across the sharp tip corners stay where they are
     out = np.array(nodes, float)
-    out[ids[move]] = dense[j[move]]
+    out[ids[move]] = target[move]
     log.info("gear %d: %d outline nodes moved onto the profile (max %.2f um), %d corner nodes kept", i,
              int(move.sum()), float(dist[move].max()) * 1e6, int((~move).sum()))
     return out
