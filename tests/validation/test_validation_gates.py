@@ -2,7 +2,9 @@
 
 References (exact for a window of whole mesh periods sampled uniformly in angle):
 * the Fourier lines at integer mesh orders are orthogonal to all other lines: a mean plus harmonics
-  is all periodic (non-periodic share 0), and a sinusoid between two orders is all non-periodic;
+  is all periodic (non-periodic share 0), and a sinusoid between two orders is all non-periodic; a
+  harmonic above the judged orders 1-20 (mesh order 40, e.g. the flank facets' passing) is periodic too
+  and adds nothing to the non-periodic share, while it stays out of the judged DTE RMS;
 * a linear drift ``s t`` changes the per-period means by ``s`` per period: drift = s (n - 1) periods;
 * white noise of standard deviation sigma has spectrum lines ``2 |X_k| / N`` of RMS ``2 sigma / sqrt(N)``
   (Parseval), which is the noise floor (3 % sampling tolerance over ~1000 lines).
@@ -15,7 +17,7 @@ import numpy as np
 import pytest
 
 from gearrom.errors import ModelError
-from gearrom.validation.gates import noise_floor, periodic_split, record_gates
+from gearrom.validation.gates import noise_floor, nonperiodic_rest, periodic_split, record_gates
 
 Z1 = 32
 PERIODS = 10
@@ -39,6 +41,19 @@ def test_harmonics_are_periodic_and_an_in_between_tone_is_not():
     assert g["periodic_dte_rms_um"] == pytest.approx(dte_rms * 1e6, rel=1e-9)
     assert g["failed"] == ["nonperiodic_share"]          # 0.1 / 0.77 = 13 % > 10 %
     assert record_gates(th, per, Z1)["passed"]
+
+
+def test_mesh_orders_above_the_judged_ones_are_periodic():
+    th = _theta()
+    judged = 1e-6 * np.cos(Z1 * th + 0.3)
+    high = 0.5e-6 * np.cos(40 * Z1 * th - 0.7)                 # mesh order 40
+    tone = 0.05e-6 * np.cos(6.5 * Z1 * th)
+    rest = nonperiodic_rest(th, judged + high + tone, Z1)
+    assert np.allclose(rest, tone, atol=1e-15)
+    g = record_gates(th, judged + high + tone, Z1)
+    assert g["periodic_dte_rms_um"] == pytest.approx(1 / math.sqrt(2), rel=1e-9)
+    assert g["nonperiodic_share"] == pytest.approx(0.05, rel=1e-9)
+    assert g["passed"]
 
 
 def test_drift_and_energy_gates():
