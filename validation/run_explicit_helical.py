@@ -55,24 +55,30 @@ STAGGER = False
 
 
 def main_loaded(rpm: float, periods: int = 10, settle_periods: int | None = None, parallel: bool = False,
-                wall_limit: float | None = None) -> Path:
-    """Run one speed from the loaded static state; write ``helical_<rpm>rpm_loaded.npz/.json``."""
+                wall_limit: float | None = None, cal: dict | None = None, out_dir: Path = HERE) -> Path:
+    """Run one speed from the loaded static state; write ``helical_<rpm>rpm_loaded.npz/.json`` into ``out_dir``
+    (checkpoints in its ``checkpoints/``). ``cal``: a ring-down calibration (default: the stored
+    ``ringdown_helical.json``, whose ``mesh`` is the model); a coarse one makes a dry run of the whole chain."""
     from run_ringdown import calibration, reference_meshes, reference_setup, settling
 
-    cal = calibration("helical")
+    stored = cal is None
+    cal = calibration("helical") if stored else cal
     mesh = cal["mesh"]
     pair = load_config("thesis-helical").pair
-    meshes = reference_meshes(pair, mesh)
+    meshes = reference_meshes(pair, mesh) if stored else helical_meshes(
+        pair, mesh["outline_size_m"], mesh["body_size_m"], mesh["grading_m"], sag=mesh["sag_m"],
+        periodic=mesh.get("periodic", False))
     f_mesh = rpm / 60 * pair.z[0]
     alpha, zeta, f_mode, tau, settle_default = settling(cal, f_mesh)
     if settle_periods is None:
         settle_periods = settle_default
     t_end = (settle_periods + periods) / f_mesh
     setup = reference_setup(mesh, rpm_in=rpm, torque_out=120.0, mu=0.0, start="loaded", relative_damping=alpha)
-    stem = HERE / f"helical_{int(rpm)}rpm_loaded"
-    checkpoint = HERE / "checkpoints" / (stem.name + ".ckpt.npz")
-    checkpoint.parent.mkdir(exist_ok=True)
-    _seed_loaded_state(checkpoint, cal)
+    stem = Path(out_dir) / f"helical_{int(rpm)}rpm_loaded"
+    checkpoint = Path(out_dir) / "checkpoints" / (stem.name + ".ckpt.npz")
+    checkpoint.parent.mkdir(parents=True, exist_ok=True)
+    if stored:
+        _seed_loaded_state(checkpoint, cal)
     t0 = time.perf_counter()
     try:
         res, te, info = run_helical_pair(pair, meshes, setup, t_end=t_end, sample_period=1.0 / (f_mesh * 128),
