@@ -40,6 +40,7 @@ from gearrom.errors import RunInterrupted
 from gearrom.fe.explicit.gearpair import GearPairSetup
 from gearrom.fe.explicit.helicalpair import helical_meshes, run_helical_pair
 from gearrom.fe.explicit.result import ENERGY_NAMES
+from gearrom.validation.records import pair_key, record_prefix, record_stem
 
 HERE = Path(__file__).resolve().parent
 log = logging.getLogger("run_explicit_helical")
@@ -55,7 +56,8 @@ STAGGER = False
 
 
 def main_loaded(rpm: float, periods: int = 10, settle_periods: int | None = None, parallel: bool = False,
-                wall_limit: float | None = None, cal: dict | None = None, out_dir: Path = HERE) -> Path:
+                wall_limit: float | None = None, cal: dict | None = None, out_dir: Path = HERE,
+                config: str = "thesis-helical") -> Path:
     """Run one speed from the loaded static state; write ``helical_<rpm>rpm_loaded.npz/.json`` into ``out_dir``
     (checkpoints in its ``checkpoints/``). ``cal``: a ring-down calibration (default: the stored
     ``ringdown_helical.json``, whose ``mesh`` is the model); a coarse one makes a dry run of the whole chain."""
@@ -64,7 +66,10 @@ def main_loaded(rpm: float, periods: int = 10, settle_periods: int | None = None
     stored = cal is None
     cal = calibration("helical") if stored else cal
     mesh = cal["mesh"]
-    pair = load_config("thesis-helical").pair
+    cfg = load_config(config)
+    pair = cfg.pair
+    if not pair.is_helical:
+        sys.exit(f"{config}: not a helical pair (run_explicit_spur.py makes the spur references)")
     meshes = reference_meshes(pair, mesh) if stored else helical_meshes(
         pair, mesh["outline_size_m"], mesh["body_size_m"], mesh["grading_m"], sag=mesh["sag_m"],
         periodic=mesh.get("periodic", False))
@@ -74,10 +79,10 @@ def main_loaded(rpm: float, periods: int = 10, settle_periods: int | None = None
         settle_periods = settle_default
     t_end = (settle_periods + periods) / f_mesh
     setup = reference_setup(mesh, rpm_in=rpm, torque_out=120.0, mu=0.0, start="loaded", relative_damping=alpha)
-    stem = Path(out_dir) / f"helical_{int(rpm)}rpm_loaded"
+    stem = record_stem(out_dir, rpm, record_prefix(pair, cfg.name), "loaded")
     checkpoint = Path(out_dir) / "checkpoints" / (stem.name + ".ckpt.npz")
     checkpoint.parent.mkdir(parents=True, exist_ok=True)
-    if stored:
+    if stored and pair_key(pair) == pair_key(load_config("thesis-helical").pair):   # the ring-down's pair
         _seed_loaded_state(checkpoint, cal)
     t0 = time.perf_counter()
     try:
@@ -92,7 +97,8 @@ def main_loaded(rpm: float, periods: int = 10, settle_periods: int | None = None
     np.savez_compressed(stem.with_suffix(".npz"), t_s=res.t, te_m=te, theta_rad=res.theta,
                         **{f"energy_{k}": res.energies[:, j] for j, k in enumerate(ENERGY_NAMES)})
     meta = {
-        "config": "thesis-helical", "rpm_in": rpm, "torque_out_Nm": 120.0, "mu": 0.0, "start": "loaded",
+        "config": cfg.name, "pair_key": pair_key(pair), "rpm_in": rpm, "torque_out_Nm": 120.0, "mu": 0.0,
+        "start": "loaded",
         "mesh_frequency_Hz": f_mesh, "ramp_s": 0.0, "t_steady_from_s": settle_periods / f_mesh, "t_end_s": t_end,
         "settle_periods": settle_periods, "mesh_periods_recorded": periods, "integration": "full",
         "threads": 2 if parallel else 1, "outline_size_mm": mesh["outline_size_m"] * 1e3,
@@ -195,13 +201,16 @@ if __name__ == "__main__":
     ap.add_argument("--integration", choices=("reduced", "full"), default="full",
                     help="gap start: element integration; 'full' (default) writes helical_<rpm>rpm_full.*")
     ap.add_argument("--parallel", action="store_true", help="multi-threaded loop (both cores)")
+    ap.add_argument("--config", default="thesis-helical",
+                    help="loaded start: the helical pair (e.g. thesis-helical-drawing: the drawing micro-geometry; "
+                         "its records are named helical-<config>_<rpm>rpm_loaded.*)")
     ap.add_argument("--wall-limit-h", type=float, default=None,
                     help="stop after a checkpoint once this many hours have passed (exit code 3); rerun to resume")
     a = ap.parse_args()
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
     if a.start == "loaded":
         main_loaded(a.rpm, periods=a.periods or 10, settle_periods=a.settle, parallel=a.parallel,
-                    wall_limit=None if a.wall_limit_h is None else a.wall_limit_h * 3600)
+                    wall_limit=None if a.wall_limit_h is None else a.wall_limit_h * 3600, config=a.config)
     else:
         main(a.rpm, periods=a.periods or 5, settle_periods=1 if a.settle is None else a.settle,
              integration=a.integration, parallel=a.parallel)

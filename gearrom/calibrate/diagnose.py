@@ -23,7 +23,7 @@ from gearrom.calibrate.fit import Context, FitSettings, Trial
 from gearrom.calibrate.microfe import FEMicroModel
 from gearrom.calibrate.model import build_run_model, index_mesh_phase
 from gearrom.calibrate.report import DiagnosisResult, RunTraces
-from gearrom.calibrate.registry import LIBRARY, PLUGINS
+from gearrom.calibrate.registry import LIBRARY, PLUGINS, effect_label
 from gearrom.calibrate.residual import load_run, rms
 from gearrom.calibrate.select import select_effects, verify
 from gearrom.calibrate.simulator import default_simulator
@@ -133,6 +133,9 @@ def _evidence(ctx: Context, t: Trial, D: list) -> str:
     share = t.info.get("explained_share", 0.0)
     ru = t.info.get("runner_up")
     txt = f"explains {100 * share:.0f} % of the residual energy"
+    if t.info.get("joint_with"):
+        txt += (f" fitted jointly with {', '.join(t.info['joint_with'])}, which it re-sizes (alone "
+                f"{100 * t.info.get('alone_share', 0.0):.0f} %)")
     if ru:
         txt += f" (next: {ru['effect']}{'/' + ru['target'] if ru['target'] else ''} {100 * ru['explained_share']:.0f} %)"
     return txt + PLUGINS[t.cand.name].evidence(ctx, t, D)
@@ -181,10 +184,14 @@ def _assemble(ctx: Context, config, sim, D, accepted, steps, after) -> Diagnosis
             e["uncertainty_um"] = {spec.size_key: sigma}
         effects.append(e)
         for rv in t.info.get("rivals", []):
-            ambiguities.append({"chosen": f"{t.cand.name}/{t.cand.target}" if t.cand.target else t.cand.name,
-                                "alternative": f"{rv['effect']}/{rv['target']}" if rv["target"] else rv["effect"],
+            ambiguities.append({"chosen": effect_label(t.key), "alternative": effect_label((rv["effect"], rv["target"])),
                                 "chosen_share": t.info.get("explained_share"), "alternative_share": rv["explained_share"],
                                 "suggested_run": rv["suggested_run"]})
+        for jr in t.info.get("joint_rivals", []):
+            ambiguities.append({"chosen": effect_label(t.key),
+                                "alternative": f"{effect_label(t.key)} together with {effect_label(jr['alternative'])}",
+                                "chosen_share": t.info.get("explained_share"), "alternative_share": jr["explained_share"],
+                                "joint_sizes_um": jr["sizes_um"], "suggested_run": jr["suggested_run"]})
     # unexplained: lines left in the after-residual, grouped across runs
     peaks_b = [chz.spectral_peaks(rb, m.run.fs_hz, m.noise_m) for rb, m in zip(res_b, models)]
     peaks = [_unexplained_peaks(ra, pb, m.run.fs_hz, m.noise_m) for ra, pb, m in zip(res_a, peaks_b, models)]

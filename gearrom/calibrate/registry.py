@@ -179,6 +179,11 @@ def check_name(name: str, target: str | None = None) -> EffectSpec:
     return spec
 
 
+def effect_label(key: tuple[str, str]) -> str:
+    """``effect/target`` of a (name, target) key; the effect's name alone where it has no target."""
+    return f"{key[0]}/{key[1]}" if key[1] else key[0]
+
+
 def suggestion(a: tuple[str, str], b: tuple[str, str]) -> str:
     """What extra run would separate candidates ``a`` and ``b`` ((name, target) each)."""
     sa, sb = LIBRARY.get(a[0]), LIBRARY.get(b[0])

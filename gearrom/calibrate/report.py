@@ -81,6 +81,13 @@ class DiagnosisResult:
             if e.get("within_tolerance") is False:
                 lines.append("    note: larger than the drawing tolerance")
         for a in s["ambiguities"]:
+            if "joint_sizes_um" in a:  # a joint fit refused because its effects cancel in the TE
+                sizes = ", ".join(f"{k} {v:.3g} um" for k, v in a["joint_sizes_um"].items())
+                lines.append(f"Cannot tell apart: {a['chosen']} alone vs {a['alternative']} (joint sizes {sizes}; "
+                             f"their TE contributions largely cancel, so the joint sizes rest on the rig model's "
+                             f"shaft motions; the joint fit explains a further {100 * a['alternative_share']:.0f} % "
+                             f"of the remaining residual). Extra run: {a['suggested_run']}")
+                continue
             lines.append(f"Cannot tell apart: {a['chosen']} vs {a['alternative']} (explained "
                          f"{100 * a['chosen_share']:.0f} % vs {100 * a['alternative_share']:.0f} %). "
                          f"Extra run: {a['suggested_run']}")

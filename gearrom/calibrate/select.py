@@ -7,12 +7,12 @@ import math
 import numpy as np
 from scipy.optimize import lsq_linear
 
-from gearrom.calibrate.fit import Context, ShaftOrder, Trial
+from gearrom.calibrate.fit import Context, ShaftOrder, Trial, size_uncertainty
 from gearrom.calibrate.fit_mesh import FlankModification
 from gearrom.excitation.slices import MicroMods
 from gearrom.calibrate.model import realigned
 from gearrom.calibrate.residual import map_to_run
-from gearrom.calibrate.registry import suggestion
+from gearrom.calibrate.registry import LIBRARY, effect_label, suggestion
 from gearrom.calibrate.simulator import ModelChanges
 
 log = logging.getLogger(__name__)
@@ -22,6 +22,9 @@ REFINE_SHARE = 0.2  # ... that explain at least 20 % of what the best explains a
 MICRO_AMBIGUITY = 0.1  # a flank-modification rival within 10 % of the best's explained energy: ambiguous
 SPLIT_REAL = 0.03  # other-channel motion above this share of the TE line: the shaft really moves
 SPLIT_NONE = 0.01  # below this share: nothing moves, a measurement error
+#: jointly fitted effects whose separate TE energies sum to more than 3 x the energy of their summed TE
+#: largely cancel: their sizes rest on fine details of the rig model's shaft motions, not on the TE
+JOINT_CANCELLATION = 3.0
 
 
 def split_test(ctx: Context, R: np.ndarray, shaft: str) -> tuple[str, float]:
@@ -63,7 +66,7 @@ def _apply_split_test(ctx: Context, R: np.ndarray, trials: list[Trial]) -> None:
     if len(trials) < 2:
         return
     a, b = trials[0], trials[1]
-    if not _runout_or_encoder(a, b) or b.dss < 0.9 * a.dss:
+    if not _runout_or_encoder(a, b) or b.dss < 0.9 * a.dss or "joint_ambiguity" in b.info:
         return
     shaft = "input" if a.cand.target.startswith("input") else "output"
     verdict, share = split_test(ctx, R, shaft)
@@ -75,8 +78,102 @@ def _apply_split_test(ctx: Context, R: np.ndarray, trials: list[Trial]) -> None:
         trials[0].info["split_decided"] = True
 
 
+def _te(t: Trial) -> np.ndarray:
+    """The TE contribution of ``t`` over all runs (m, unweighted)."""
+    return np.concatenate([c[0] for c in t.contrib])
+
+
+def _cancelling(a: Trial, b: Trial) -> bool:
+    """The TE contributions of ``a`` and ``b`` largely cancel: their separate energies sum to more than
+    :data:`JOINT_CANCELLATION` times the energy of their sum."""
+    ta, tb = _te(a), _te(b)
+    return float(ta @ ta + tb @ tb) > JOINT_CANCELLATION * float((ta + tb) @ (ta + tb))
+
+
+def _joint_trial(ctx: Context, t: Trial, lin: list[Trial], base: tuple, R_lin: np.ndarray, ss: float,
+                 margin: float) -> Trial:
+    """Candidate ``t`` (fitted alone) scored jointly with the accepted linear effects ``lin``.
+
+    One bounded least squares over the columns of ``lin`` (``base``, :func:`_columns`) and of ``t`` on
+    ``R_lin`` (the initial residual less the accepted non-linear effects): an accepted effect that absorbed
+    a line ``t`` shares is re-sized. The joint gain is the residual energy ``ss`` (what all accepted effects
+    leave) less what the joint fit leaves. Where it exceeds ``t``'s alone gain by more than ``margin``, the
+    joint result replaces ``t`` (its contribution at the joint size, its gain the joint gain, the re-sized
+    accepted effects in ``info["joint"]``), unless ``t`` and a re-sized effect largely cancel in the TE
+    (:func:`_cancelling`): their sizes then rest on the rig model's shaft motions, and ``t`` keeps its alone
+    fit with the joint result in ``info["joint_ambiguity"]``.
+    """
+    cols = _columns(ctx, [t])
+    if not np.all(np.isfinite(cols[1])):  # a degenerate alone fit (zero secant) has no joint column
+        return t
+    columns = (base[0] + cols[0], np.hstack([base[1], cols[1]]), np.concatenate([base[2], cols[2]]),
+               np.concatenate([base[3], cols[3]]))
+    fitted, rest = _solve(ctx, lin + [t], columns, R_lin)
+    gain = ss - float(rest @ rest)
+    if gain <= t.dss + margin:
+        return t
+    new, resized = fitted[-1], fitted[:-1]
+    partners = [a for a in resized if _cancelling(new, a)]
+    if partners:
+        sizes = {effect_label(u.key): abs(u.cand.report(u.x, u.info).get(LIBRARY[u.cand.name].size_key, math.nan))
+                 for u in [*partners, new]}
+        t.info["joint_ambiguity"] = {"partner": partners[0].key, "dss": gain, "sizes_um": sizes}
+        return t
+    sig = size_uncertainty(ctx, rest, columns[1])
+    out, j = [], 0
+    for u, b in zip(fitted, columns[0]):
+        n = len(b[0])
+        out.append(Trial(u.cand, u.x, u.contrib, u.dss, u.n_par, {**u.info, "sigma_um": sig[j:j + n]}))
+        j += n
+    new = out[-1]
+    new.dss = gain
+    new.info.update(joint=out[:-1], alone_dss=t.dss)
+    return new
+
+
+def _rank(trials: list[Trial]) -> None:
+    """Sort ``trials`` by explained energy, those whose joint fit was refused (:func:`_joint_trial`) last:
+    accepting one would let the joint refit of the accepted effects reach that refused joint result."""
+    trials.sort(key=lambda t: ("joint_ambiguity" in t.info, -t.dss))
+
+
+def joint_scores(ctx: Context, trials: list[Trial], accepted: list[Trial], R0: np.ndarray, R: np.ndarray) -> list[Trial]:
+    """The linear candidates among ``trials`` scored jointly with the accepted linear effects
+    (:func:`_joint_trial`), the others as they are. ``R0``: the initial residual; ``R``: what the accepted
+    effects leave of it. Nothing changes before a linear effect is accepted, or once a rig parameter that
+    refits the accepted effects on its re-tuned rig is (their columns then belong to that rig)."""
+    lin = [t for t in accepted if hasattr(t.cand, "linear_columns")]
+    if not lin or any(t.info.get("profiled") for t in accepted):
+        return trials
+    R_lin = R0 - sum((ctx.stack(t.contrib) for t in accepted if t not in lin), np.zeros_like(R0))
+    base = _columns(ctx, lin)
+    ss = float(R @ R)
+    return [_joint_trial(ctx, t, lin, base, R_lin, ss, ctx.s.kappa * ctx.noise_var * t.n_par)
+            if hasattr(t.cand, "linear_columns") else t for t in trials]
+
+
+def _threshold(ctx: Context, n_par: int, ss: float, R0: np.ndarray) -> float:
+    """Residual energy an effect with ``n_par`` parameters must explain to be added (``ss``: what is left)."""
+    s = ctx.s
+    return max(s.kappa * ctx.noise_var * n_par, s.min_fraction * ss, s.min_total_fraction * float(R0 @ R0))
+
+
+def _joint_ambiguity(t: Trial, ss: float) -> dict:
+    """The ambiguity entry of a guarded joint fit of candidate ``t`` (:func:`_joint_trial`)."""
+    ja = t.info["joint_ambiguity"]
+    return {"partner": ja["partner"], "alternative": t.key, "sizes_um": ja["sizes_um"],
+            "explained_share": ja["dss"] / ss if ss > 0 else 0.0,
+            "suggested_run": suggestion(ja["partner"], t.key)}
+
+
 def select_effects(ctx: Context, candidates: list, D: list[np.ndarray]) -> tuple[list[Trial], list[dict]]:
     """Forward selection on the residual ``D`` (per run (3, n): measured minus nominal).
+
+    Once a linear effect is accepted, each linear candidate is also scored jointly with the accepted linear
+    effects (:func:`joint_scores`): an accepted effect that took a line both share is re-sized, and the
+    candidate counts with the joint gain. A joint fit whose effects cancel in the TE is refused and, where
+    it would have been significant, reported as an ambiguity with the accepted effect it re-sized
+    (``info["joint_rivals"]``).
 
     Returns
     -------
@@ -90,6 +187,7 @@ def select_effects(ctx: Context, candidates: list, D: list[np.ndarray]) -> tuple
     accepted: list[Trial] = []
     steps: list[dict] = []
     screened: set = set()  # expensive (re-simulating) candidates that explained nothing significant
+    joint_rivals: dict = {}  # candidate key -> its last refused joint fit (:func:`_joint_ambiguity`)
     for _ in range(s.max_effects):
         R = R0 - sum((ctx.stack(t.contrib) for t in accepted), np.zeros_like(R0))
         ss = float(R @ R)
@@ -109,8 +207,9 @@ def select_effects(ctx: Context, candidates: list, D: list[np.ndarray]) -> tuple
                 trials.append(t)
         if not trials:
             break
-        trials.sort(key=lambda t: -t.dss)
-        floor = max(s.kappa * ctx.noise_var, s.min_total_fraction * float(R0 @ R0), s.min_fraction * ss)
+        trials = joint_scores(ctx, trials, accepted, R0, R)
+        _rank(trials)
+        floor = _threshold(ctx, 1, ss, R0)
         # the leading flank-modification candidates get re-simulated sizes: the linearized ranking of
         # modifications that also change the mean mesh stiffness (lead crowning of a spur pair) can put
         # the right one behind a look-alike, so every modification near the top is refined before ranking
@@ -118,10 +217,15 @@ def select_effects(ctx: Context, candidates: list, D: list[np.ndarray]) -> tuple
         for i, t in enumerate(trials[:REFINE_TOP]):
             if isinstance(t.cand, FlankModification) and t.dss > 0.1 * floor and t.dss > REFINE_SHARE * top:
                 trials[i] = t.cand.refine(ctx, R, t)
-        trials.sort(key=lambda t: -t.dss)
+        _rank(trials)
         _apply_split_test(ctx, R, trials)
         best = trials[0]
-        thresh = max(s.kappa * ctx.noise_var * best.n_par, s.min_fraction * ss, s.min_total_fraction * float(R0 @ R0))
+        thresh = _threshold(ctx, best.n_par, ss, R0)
+        # a joint fit refused for cancelling TE contributions that would have been significant is reported
+        for t in trials:
+            joint_rivals.pop(t.key, None)
+            if "joint_ambiguity" in t.info and t.info["joint_ambiguity"]["dss"] >= _threshold(ctx, t.n_par, ss, R0):
+                joint_rivals[t.key] = _joint_ambiguity(t, ss)
         screened |= {repr(t.cand) for t in trials if t.cand.expensive
                      and (t.dss < 0.25 * thresh or t.info.get("screened"))}
         step = {"residual_energy": ss, "threshold": thresh,
@@ -150,11 +254,20 @@ def select_effects(ctx: Context, candidates: list, D: list[np.ndarray]) -> tuple
         best.info["runner_up"] = ({"effect": trials[1].cand.name, "target": trials[1].cand.target or None,
                                    "explained_share": trials[1].dss / ss} if len(trials) > 1 else None)
         step["accepted"] = repr(best.cand)
+        if "joint" in best.info:  # scored jointly: the accepted effects it re-sized take their joint sizes
+            resized = {u.key: u for u in best.info.pop("joint")}
+            accepted = [resized.get(t.key, t) for t in accepted]
+            best.info["joint_with"] = [effect_label(k) for k in resized]
+            best.info["alone_share"] = best.info.pop("alone_dss") / ss
         accepted.append(best)
         accepted = adopt_refit(accepted, best)
         accepted = joint_refit(ctx, accepted, R0)
         # a rig candidate also changes how the accepted effects pass through the drivetrain: screen it anew
         screened -= {repr(c) for c in candidates if getattr(c, "interacts", False)}
+    for key, amb in joint_rivals.items():  # reported with the accepted effect the refused joint fit re-sized
+        holder = next((t for t in accepted if t.key == amb["partner"]), None)
+        if holder is not None and key not in {t.key for t in accepted}:
+            holder.info.setdefault("joint_rivals", []).append(amb)
     return accepted, steps
 
 
@@ -183,14 +296,21 @@ def adopt_refit(accepted: list[Trial], rig: Trial) -> list[Trial]:
     return out
 
 
-def linear_refit(ctx: Context, trials: list[Trial], R: np.ndarray) -> list[Trial]:
-    """The effects' sizes fitted together on ``R`` by one bounded least squares over their linear columns
-    (:meth:`linear_columns`, evaluated on ``ctx``'s models), shapes and positions kept."""
+def _columns(ctx: Context, trials: list[Trial]) -> tuple[list, np.ndarray, np.ndarray, np.ndarray]:
+    """The trials' linear columns (:meth:`linear_columns`, evaluated on ``ctx``'s models): per trial its
+    (per-run columns, lower, upper bounds), the stacked column matrix and the bounds of all columns."""
     blocks = [t.cand.linear_columns(ctx, t.info) for t in trials]
     cols = [c for b in blocks for c in b[0]]
     lo = np.concatenate([np.broadcast_to(b[1], (len(b[0]),)) for b in blocks])
     hi = np.concatenate([np.broadcast_to(b[2], (len(b[0]),)) for b in blocks])
-    A = np.column_stack([ctx.stack(c) for c in cols])
+    return blocks, np.column_stack([ctx.stack(c) for c in cols]), lo, hi
+
+
+def _solve(ctx: Context, trials: list[Trial], columns: tuple, R: np.ndarray) -> tuple[list[Trial], np.ndarray]:
+    """The trials' sizes fitted together on ``R`` by one bounded least squares over ``columns``
+    (:func:`_columns`); returns the re-sized trials (shapes, positions and info kept) and the stacked
+    residual they leave."""
+    blocks, A, lo, hi = columns
     x = lsq_linear(A, R, bounds=(lo, hi)).x
     out, j = [], 0
     for t, b in zip(trials, blocks):
@@ -199,7 +319,13 @@ def linear_refit(ctx: Context, trials: list[Trial], R: np.ndarray) -> list[Trial
         contrib = [sum(xi[q] * b[0][q][r] for q in range(n)) for r in range(len(ctx.models))]
         out.append(Trial(t.cand, xi, contrib, t.dss, t.n_par, t.info))
         j += n
-    return out
+    return out, R - A @ x
+
+
+def linear_refit(ctx: Context, trials: list[Trial], R: np.ndarray) -> list[Trial]:
+    """The effects' sizes fitted together on ``R`` by one bounded least squares over their linear columns
+    (:meth:`linear_columns`, evaluated on ``ctx``'s models), shapes and positions kept."""
+    return _solve(ctx, trials, _columns(ctx, trials), R)[0]
 
 
 def joint_refit(ctx: Context, accepted: list[Trial], R0: np.ndarray, sweeps: int = 3) -> list[Trial]:

@@ -49,6 +49,18 @@ def profile_removal(pair, i: int, L: np.ndarray, micro=None) -> np.ndarray:
     return out
 
 
+def lead_removal(pair, i: int, z) -> np.ndarray:
+    """Material removed by the lead modifications of gear ``i`` at axial positions ``z`` [m] from the middle
+    of the face width: parabolic lead crowning ``C_b`` (zero in the middle, ``C_b`` at both ends of the
+    face width ``b``) and helix slope ``f_Hbeta`` (linear, zero in the middle, ``f_Hbeta / 2`` at +b/2)."""
+    z = np.asarray(z, float)
+    m = pair.gears[i].micro
+    if not m.enabled:
+        return np.zeros_like(z)
+    b = pair.face_width
+    return m.lead_crowning * (2 * z / b) ** 2 + m.helix_slope * z / b
+
+
 def tip_limit(pair, i: int) -> float:
     """Largest roll length that can carry contact: the effective tip (d_Na when enabled) [m]."""
     return roll_at(pair, i, pair.effective_tip_diameter[i])

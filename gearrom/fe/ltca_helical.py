@@ -35,7 +35,7 @@ from gearrom.errors import SolverError
 from gearrom.fe.contact import single_thread_blas, solve_contact
 from gearrom.fe.halfspace import rect_surface
 from gearrom.fe.ltca import PositionResult
-from gearrom.fe.flankgaps import pitch_removal, profile_removal, runout_removal, tip_limit
+from gearrom.fe.flankgaps import lead_removal, pitch_removal, profile_removal, runout_removal, tip_limit
 
 _GX, _GW = np.polynomial.legendre.leggauss(8)
 _GX, _GW = 0.5 * (_GX + 1), 0.5 * _GW
@@ -153,13 +153,7 @@ class Helical3DLTCA:
 
     # ---------------------------------------------------------------- gaps
     def _lead_removal(self, z: np.ndarray) -> np.ndarray:
-        out = np.zeros_like(z)
-        b = self.pair.face_width
-        for g in self.pair.gears:
-            m = g.micro
-            if m.enabled:
-                out += m.lead_crowning * (2 * z / b) ** 2 + m.helix_slope * z / b
-        return out
+        return lead_removal(self.pair, 0, z) + lead_removal(self.pair, 1, z)
 
     def _fine(self, theta: float, mesh_index: int, K: int, only=None) -> dict:
         """All candidates at ``theta`` (flat arrays; see module doc)."""

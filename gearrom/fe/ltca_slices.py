@@ -22,6 +22,7 @@ import numpy as np
 
 from gearrom.errors import SolverError
 from gearrom.fe.contact import solve_contact_blocks
+from gearrom.fe.flankgaps import lead_removal
 from gearrom.fe.ltca import PositionResult, SpurLTCA
 
 
@@ -63,13 +64,7 @@ class HelicalSliceLTCA(SpurLTCA):
             self.c = plane
 
     def _lead_removal(self, z: float) -> float:
-        out = 0.0
-        b = self.pair.face_width
-        for g in self.pair.gears:
-            m = g.micro
-            if m.enabled:
-                out += m.lead_crowning * (2 * z / b) ** 2 + m.helix_slope * z / b
-        return out / self.cosb
+        return float(lead_removal(self.pair, 0, z) + lead_removal(self.pair, 1, z)) / self.cosb
 
     def solve_many(self, theta: float, torques, mesh_index: int = 0, only=None) -> list[PositionResult]:
         """Contact solutions at one input angle for several output torques [N m]."""

@@ -17,7 +17,8 @@ import numpy as np
 
 from gearrom.errors import ConfigError, MeasurementError
 
-__all__ = ["DEFAULT_FE_DIR", "FE_INTEGRATIONS", "FERecord", "load_fe_record", "record_stem", "replace_meta"]
+__all__ = ["DEFAULT_FE_DIR", "FE_INTEGRATIONS", "FERecord", "check_record_pair", "load_fe_record", "pair_key",
+           "record_prefix", "record_stem", "replace_meta"]
 
 #: folder of the stored records: ``$GEARROM_FE_DIR``, else ``validation/`` of the source checkout
 DEFAULT_FE_DIR = Path(os.environ.get("GEARROM_FE_DIR") or Path(__file__).resolve().parents[2] / "validation")
@@ -49,6 +50,31 @@ FE_INTEGRATIONS = ("loaded", "full", "reduced")
 _SUFFIX = {"loaded": "_loaded", "full": "_full", "reduced": ""}
 
 
+def pair_key(pair) -> str:
+    """SHA-1 of the pair's full definition (geometry, tools, materials, micro-geometry): a record states the
+    key of the pair it was run on."""
+    import hashlib
+
+    return hashlib.sha1(repr(pair).encode()).hexdigest()
+
+
+def record_prefix(pair, config_name: str) -> str:
+    """File prefix of the records of ``pair``: ``spur`` or ``helical`` for perfect flanks, ``<kind>-<config>``
+    when either gear's micro-geometry is switched on (its records are of another pair)."""
+    kind = "helical" if pair.is_helical else "spur"
+    if any(g.micro.enabled for g in pair.gears):
+        return f"{kind}-{config_name}"
+    return kind
+
+
+def check_record_pair(record: "FERecord", pair, where: str) -> None:
+    """ConfigError when ``record`` states a pair key (``pair_key`` in its metadata) other than ``pair``'s."""
+    key = record.meta.get("pair_key")
+    if key is not None and key != pair_key(pair):
+        raise ConfigError(f"{where}: the record was run on another pair (config {record.meta.get('config', '?')!r}, "
+                          "pair key differs): its gear data or micro-geometry are not this config's")
+
+
 def record_stem(fe_dir: str | Path, rpm: float, prefix: str = "spur", integration: str = "reduced") -> Path:
     """``<fe_dir>/<prefix>_<rpm>rpm`` plus ``_loaded``, ``_full`` or nothing (:data:`FE_INTEGRATIONS`)."""
     if integration not in FE_INTEGRATIONS:
@@ -64,8 +90,10 @@ def load_fe_record(fe_dir: str | Path, rpm: float, prefix: str = "spur", integra
     flag = {"full": " --integration full", "loaded": " --start loaded --integration full", "reduced": ""}[integration]
     for p in (npz, js):
         if not p.is_file():
-            raise MeasurementError(f"stored explicit FE result {p} is missing (run validation/run_explicit_{prefix}.py "
-                                   f"{int(round(rpm))}{flag}{' or use --fresh' if prefix == 'spur' else ''})")
+            kind, _, config = prefix.partition("-")
+            extra = f" --config {config}" if config else ""
+            raise MeasurementError(f"stored explicit FE result {p} is missing (run validation/run_explicit_{kind}.py "
+                                   f"{int(round(rpm))}{flag}{extra}{' or use --fresh' if prefix == 'spur' else ''})")
     meta = json.loads(js.read_text())
     with np.load(npz) as d:
         for key in ("t_s", "te_m", "theta_rad"):

@@ -28,8 +28,8 @@ from gearrom.validation.compare import PERIODIC_ORDERS, TOLERANCES, compare_metr
 from gearrom.validation.gates import record_gates
 from gearrom.validation.pair_rom import (PairRomSetup, mesh_excitation, polar_inertia, reference_settings,
                                          scaled_excitation, simulate_pair_rom, table_samples)
-from gearrom.validation.records import (DEFAULT_FE_DIR, FE_INTEGRATIONS, FERecord, load_fe_record, record_stem,
-                                        replace_meta)
+from gearrom.validation.records import (DEFAULT_FE_DIR, FE_INTEGRATIONS, FERecord, check_record_pair, load_fe_record,
+                                        record_prefix, record_stem, replace_meta)
 
 log = logging.getLogger(__name__)
 
@@ -310,7 +310,7 @@ def validate(config: str, rpms, fe_dir: str | Path | None = None, fresh: bool = 
     if helical and fresh:
         raise ConfigError(f"{cfg.name}: --fresh runs the 2D spur FE only; the helical 3D explicit FE takes about half "
                           "an hour per speed (validation/run_explicit_helical.py RPM): use the stored records")
-    prefix = "helical" if helical else "spur"
+    prefix = record_prefix(pair, cfg.name)
     facets = facets and not helical
     if table == "explicit_scaled" and (helical or fresh or not facets or excitation_source != "fe"):
         raise ConfigError("table='explicit_scaled' comes from the stored 2D spur explicit FE's slow run: it needs a spur "
@@ -328,6 +328,8 @@ def validate(config: str, rpms, fe_dir: str | Path | None = None, fresh: bool = 
             raise ConfigError(f"--rpm values must be > 0, got {rpm}")
         records[rpm] = (fresh_fe_record(pair, rpm, cfg.operating.torque_out) if fresh
                         else load_fe_record(fe_dir, rpm, prefix, fe_integration or _preferred_integration(fe_dir, rpm, prefix)))
+        if not fresh:
+            check_record_pair(records[rpm], pair, f"{cfg.name} at {rpm:g} rpm ({prefix} record in {fe_dir})")
     from gearrom.fe.mesh2d import settings_from_section
 
     fe_settings, _ = settings_from_section(cfg.section("fe"), str(cfg.source or cfg.name))

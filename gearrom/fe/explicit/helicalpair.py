@@ -50,6 +50,7 @@ from dataclasses import replace
 import numpy as np
 
 from gearrom.errors import ConfigError, MeshError
+from gearrom.fe.explicit.flankmods import apply_flank_modifications, micro_enabled, usable_tip_radius
 from gearrom.fe.explicit.driver import solve
 from gearrom.fe.explicit.gearpair import (GearPairSetup, first_touch, gear_pair_model, outline_order,
                                           polar_inertias, transmission_error)
@@ -198,7 +199,8 @@ def _flank_contact_sets(pair, m2d, n1_2d, n2_2d, c2, off: int) -> tuple[dict, di
     rf = np.where(np.arange(n2d) < off, 0.5 * pair.dff[0], 0.5 * pair.dff[1])
     loa = pair.aw * math.sin(pair.alpha_wt)
     roll_ff = [math.sqrt(max((0.5 * pair.dff[g]) ** 2 - pair.rb[g] ** 2, 0.0)) for g in (0, 1)]
-    r_top = [math.hypot(pair.rb[g], loa - roll_ff[1 - g]) for g in (0, 1)]
+    # no contact above the mate's root form circle's conjugate nor above the usable tip d_Na
+    r_top = [min(math.hypot(pair.rb[g], loa - roll_ff[1 - g]), usable_tip_radius(pair, g)) for g in (0, 1)]
     rt = np.where(np.arange(n2d) < off, r_top[0], r_top[1])
     on_root = (rad < rf - _ROOT_BAND) | (rad > rt + _ROOT_BAND)
     surfs = {k: np.asarray(v)[~on_root[np.asarray(v)].any(axis=1)] for k, v in m2d.surfaces.items()}
@@ -382,6 +384,13 @@ def helical_pair_model(pair, meshes, setup: GearPairSetup, n_layers: int, materi
         nodes[~g1, :2] = rot
     log.info("helical: contact gap on the line of action at the start %s um (target %.3f um)",
              np.round(np.array(gap_start) * 1e6, 3).tolist(), setup.clearance * 1e6)
+    if micro_enabled(pair):   # drawing micro-geometry, on the pair placed by its perfect flanks
+        loops = [outline_order(_outer_loop_segments(q2[(q2 < off).all(axis=1)], set(node_sets["bore_1"].tolist()))),
+                 outline_order(_outer_loop_segments(q2[(q2 >= off).all(axis=1)] - off,
+                                                    set((np.asarray(node_sets["bore_2"]) - off).tolist())))]
+        flanks = [np.union1d(slaves["flank_1"], np.unique(surfs["outline_1"])),
+                  np.union1d(slaves["flank_2"], np.unique(surfs["outline_2"])) - off]
+        nodes = apply_flank_modifications(pair, nodes, base, z_gear, loops, flanks, (np.zeros(2), c2))
     omega1, omega2 = info2["omega_in"], info2["omega_out"]
     v0 = None
     if m2d.initial_velocity is not None:
