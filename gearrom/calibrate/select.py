@@ -139,8 +139,8 @@ def _rank(trials: list[Trial]) -> None:
 
 def joint_scores(ctx: Context, trials: list[Trial], accepted: list[Trial], R0: np.ndarray, R: np.ndarray) -> list[Trial]:
     """The linear candidates among ``trials`` scored jointly with the accepted linear effects
-    (:func:`_joint_trial`), the others as they are. ``R0``: the initial residual; ``R``: what the accepted
-    effects leave of it. Nothing changes before a linear effect is accepted, or once a rig parameter that
+    (:func:`_joint_trial`), the others as they are. ``R0``: the initial stacked, weighted residual (m);
+    ``R``: what the accepted effects leave of it (m). Nothing changes before a linear effect is accepted, or once a rig parameter that
     refits the accepted effects on its re-tuned rig is (their columns then belong to that rig)."""
     lin = [t for t in accepted if hasattr(t.cand, "linear_columns")]
     if not lin or any(t.info.get("profiled") for t in accepted):
