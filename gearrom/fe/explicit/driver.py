@@ -435,6 +435,24 @@ def _run_meta(model: ExplicitModel, d: dict, step_dt: float, nsteps_total: int, 
                 n_contact_slaves=int(d["slaves"].size), n_contact_segments=int(len(d["segs"])))
 
 
+def _start_or_resume(model: ExplicitModel, checkpoint: Path | None, resume: bool, st: dict, out: dict,
+                     bounds: np.ndarray, run_settings: dict, t_end: float, chunks: int):
+    """``(key, fields, row, first chunk, t0, wall so far)`` of a run: its checkpoint key and per-field
+    fingerprints (JSON), and where it starts (``st`` and ``out`` filled from the checkpoint on a resume)."""
+    if checkpoint is None:
+        return "", "{}", 0, 0, 0.0, 0.0
+    key = fingerprint(model, **run_settings)
+    fields = field_fingerprints(model, **run_settings)
+    if not (resume and checkpoint.is_file()):
+        return key, json.dumps(fields), 0, 0, 0.0, 0.0
+    legacy = fingerprint(model, t_end=t_end, chunks=chunks, **run_settings)
+    row, first, t0, wall_before, older = _load_checkpoint(checkpoint, st, out, key, legacy, bounds, fields)
+    log.info("explicit: resumed from %s at t = %.4e s (chunk %d of %d)", checkpoint, t0, first, chunks)
+    if first == chunks and older:  # a finished run of the older format: stored extendable
+        _save_checkpoint(checkpoint, st, out, row, first, t0, wall_before, key, bounds, json.dumps(fields))
+    return key, json.dumps(fields), row, first, t0, wall_before
+
+
 def solve(model: ExplicitModel, t_end: float, sample_period: float | None = None, *,
           dt: float | None = None, safety: float = 0.9, probes=(), chunks: int = 20,
           prepared: dict | None = None, parallel: bool | None = None,
@@ -528,20 +546,11 @@ def solve(model: ExplicitModel, t_end: float, sample_period: float | None = None
     if parallel is None:
         parallel = model.elements.shape[0] >= 20000
     run_loop = run_loop_parallel if parallel else run_loop_serial
-    row, first, t0, wall_before = 0, 0, 0.0, 0.0
-    key, fields = "", {}
     if checkpoint is not None:
         checkpoint = Path(checkpoint)
-        run_settings = dict(sample_period=sample_period, dt=step_dt, probes=probes, parallel=bool(parallel))
-        key = fingerprint(model, **run_settings)
-        fields = field_fingerprints(model, **run_settings)
-        if resume and checkpoint.is_file():
-            legacy = fingerprint(model, t_end=t_end, sample_period=sample_period, dt=step_dt, chunks=chunks,
-                                 probes=probes, parallel=bool(parallel))
-            row, first, t0, wall_before, older = _load_checkpoint(checkpoint, st, out, key, legacy, bounds, fields)
-            log.info("explicit: resumed from %s at t = %.4e s (chunk %d of %d)", checkpoint, t0, first, chunks)
-            if first == chunks and older:  # a finished run of the older format: stored extendable
-                _save_checkpoint(checkpoint, st, out, row, first, t0, wall_before, key, bounds, json.dumps(fields))
+    key, fields, row, first, t0, wall_before = _start_or_resume(
+        model, checkpoint, resume, st, out, bounds, dict(sample_period=sample_period, dt=step_dt, probes=probes,
+                                                         parallel=bool(parallel)), t_end, chunks)
     # the loop's array groups (the state arrays are updated in place; the output rows change per chunk)
     src = {**d, **st, "X": model.nodes, "probes": probes}
     fixed = tuple(tuple(src[k] for k in names) for names in
@@ -572,12 +581,10 @@ def solve(model: ExplicitModel, t_end: float, sample_period: float | None = None
                  "(strain + contact %.3g J, external work %.3g J)", t0, t_end, 100.0 * bounds[c + 1] / n_out_total,
                  wall_before + now - wall0, eta, e[9], e[1] + e[2] + e[4], e[8])
         if checkpoint is not None and (now - last_save >= checkpoint_every or c == chunks - 1):
-            _save_checkpoint(checkpoint, st, out, row, c + 1, t0, wall_before + now - wall0, key, bounds,
-                             json.dumps(fields))
+            _save_checkpoint(checkpoint, st, out, row, c + 1, t0, wall_before + now - wall0, key, bounds, fields)
             last_save = time.perf_counter()
         if wall_limit is not None and now - wall0 >= wall_limit and c < chunks - 1:
-            _save_checkpoint(checkpoint, st, out, row, c + 1, t0, wall_before + now - wall0, key, bounds,
-                             json.dumps(fields))
+            _save_checkpoint(checkpoint, st, out, row, c + 1, t0, wall_before + now - wall0, key, bounds, fields)
             raise RunInterrupted(f"explicit run stopped at t = {t0:.4e} of {t_end:.4e} s (wall limit "
                                  f"{wall_limit:g} s); checkpoint {checkpoint}: run again to resume")
     wall = wall_before + time.perf_counter() - wall0
