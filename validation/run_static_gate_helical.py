@@ -57,21 +57,22 @@ FACETS = "curved: each facet's sag restored from its neighbours (gearrom.fe.expl
 FLAT_FACETS = "flat: the bilinear facets' chords"
 
 
-def _tag(layers: int, outline: float, body: float, sector: float | None, sag: float | None = None) -> str:
+def _tag(layers: int, outline: float, body: float, sector: float | None, sag: float | None = None,
+         periodic: bool = False) -> str:
     tag = (f"layers{layers}_outline{outline * 1e3:g}mm" + (f"_sag{sag * 1e6:g}um" if sag else "")
            + f"_body{body * 1e3:g}mm")
-    return tag + (f"_sector{sector:g}rad" if sector is not None else "_full")
+    return tag + (f"_sector{sector:g}rad" if sector is not None else "_full") + ("_periodic" if periodic else "")
 
 
 def main(n: int = 16, torques=(60.0, 120.0), layers: int = 8, outline: float = 0.3e-3, body: float = 2.5e-3,
          grading: float = 1.0e-3, sector: float | None = None, penalties=(0.1, 0.3, 1.0, 3.0, math.inf),
          sag: float | None = None, geometry_update: bool = False, start_update: bool = True,
-         flat_facets_record: bool = False) -> Path:
+         flat_facets_record: bool = False, periodic: bool = False) -> Path:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")   # the seed pair's tip-fillet interference warning (see helicalpair)
         pair = load_config("thesis-helical").pair
     period = 2 * math.pi / pair.z[0]
-    out = HERE / (f"static_gate_helical_{_tag(layers, outline, body, sector, sag)}"
+    out = HERE / (f"static_gate_helical_{_tag(layers, outline, body, sector, sag, periodic)}"
                   + ("_updated" if geometry_update else "") + ".json")
     data = json.loads(out.read_text()) if out.is_file() else {}
     if not flat_facets_record and data and data.get("facets") != FACETS:
@@ -83,7 +84,7 @@ def main(n: int = 16, torques=(60.0, 120.0), layers: int = 8, outline: float = 0
     pts = data.setdefault("points", {})
     keys = [f"{p:g}" for p in penalties]
     data.update(config="thesis-helical", integration="full", n_layers=layers, outline_size_mm=outline * 1e3,
-                body_size_mm=body * 1e3, grading_mm=grading * 1e3, sector_rad=sector, n_points=n,
+                body_size_mm=body * 1e3, grading_mm=grading * 1e3, sector_rad=sector, n_points=n, periodic=periodic,
                 outline_sag_um=None if sag is None else sag * 1e6, geometry_update=geometry_update,
                 solver="direct static solve of the explicit model (gearrom.fe.explicit.static3d)",
                 definition="static TE on the transverse line of action (explicit runs' convention: zero at rigid "
@@ -95,7 +96,7 @@ def main(n: int = 16, torques=(60.0, 120.0), layers: int = 8, outline: float = 0
     upd_todo = [k for k in keys if k not in upd] if start_update else []
     if todo or upd_todo:
         t0 = time.perf_counter()
-        meshes = helical_meshes(pair, outline, body, grading, sag=sag)
+        meshes = helical_meshes(pair, outline, body, grading, sag=sag, periodic=periodic)
         setup = GearPairSetup(rpm_in=1e-4, torque_out=max(torques), penalty_scale=MODEL_PENALTY, integration="full")
         model, info = helical_pair_model(pair, meshes, setup, layers, run_angle=sector)
         sp3 = StaticPair3D(model, info, pair)
@@ -136,6 +137,16 @@ def main(n: int = 16, torques=(60.0, 120.0), layers: int = 8, outline: float = 0
                  [round(float(lt[t].mean() * 1e6), 3) for t in torques],
                  "pass" if gates[k]["passed"] else "FAIL", gates[k]["misses"])
     data["gate_by_penalty"] = gates
+    # mesh orders the angles resolve without aliasing (below n / 2): the layers' passing shows near
+    # order n_layers / eps_beta
+    def orders(x):
+        x = np.asarray(x, float)
+        return (np.abs(np.fft.rfft(x - x.mean()))[1:(n + 1) // 2] * 2 / n * 1e9).round(3).tolist()
+
+    data["order_amplitudes_nm"] = {
+        "explicit": {k: {f"{t:g}": orders([pts[str(j)][f"{k}/{t:g}"] * 1e-6 for j in range(n)]) for t in torques}
+                     for k in keys},
+        "ltca": {f"{t:g}": orders(lt[t]) for t in torques}}
     data["machine"] = {"cpu_count": os.cpu_count(), "platform": platform.platform(), "load_average": os.getloadavg()}
     out.write_text(json.dumps(data, indent=2, default=float) + "\n")
     return out
@@ -158,7 +169,9 @@ if __name__ == "__main__":
                     "deformed geometry (geometry_update_at_start)")
     ap.add_argument("--geometry-update", action="store_true", help="solve every point on its deformed contact "
                     "geometry (the explicit model's equilibrium; about 3 times the time); writes *_updated.json")
+    ap.add_argument("--periodic", action="store_true", help="tooth-periodic sections (the reference mesh kind); "
+                    "writes *_periodic.json")
     a = ap.parse_args()
     main(a.points, tuple(a.torques), a.layers, a.outline_mm * 1e-3, a.body_mm * 1e-3, sector=a.sector,
          penalties=tuple(a.penalties), sag=None if a.sag_um is None else a.sag_um * 1e-6,
-         geometry_update=a.geometry_update, start_update=not a.no_start_update)
+         geometry_update=a.geometry_update, start_update=not a.no_start_update, periodic=a.periodic)
