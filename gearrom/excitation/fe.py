@@ -63,15 +63,24 @@ def flank_pair(pair):
     return dataclasses.replace(pair, gears=tuple(gears))
 
 
-def table_key(pair, torques: Sequence[float], n_positions: int, settings=None, helical_model: str = "3d") -> str:
-    """Content key of a table: pair, torques, positions, mesh settings, model, gearrom version."""
+def table_key(pair, torques: Sequence[float], n_positions: int, settings=None, helical_model: str = "3d",
+              n_slices: int | None = None) -> str:
+    """Content key of a table: pair, torques, positions, mesh settings, model, strips of a helical
+    model (when not the default), gearrom version."""
     from gearrom.fe.cache import cache_key
     from gearrom.fe.mesh3d import Mesh3DSettings
 
     model = helical_model if pair.is_helical else "2d"
     mesh = repr(Mesh3DSettings()) if model == "3d" else repr(settings)  # the mesh the LTCA is built on
-    return cache_key(TABLE_REVISION, {"pair": _pair_key(pair), "torques_Nm": [repr(float(t)) for t in torques],
-                                      "n_positions": int(n_positions), "mesh": mesh, "helical_model": model})
+    content = {"pair": _pair_key(pair), "torques_Nm": [repr(float(t)) for t in torques],
+               "n_positions": int(n_positions), "mesh": mesh, "helical_model": model}
+    if pair.is_helical and n_slices is not None and int(n_slices) != DEFAULT_SLICES:
+        content["n_slices"] = int(n_slices)
+    return cache_key(TABLE_REVISION, content)
+
+
+#: strips over the face width of the helical LTCAs (:func:`gearrom.fe.sweep.build_ltca`'s default)
+DEFAULT_SLICES = 24
 
 
 #: tables already read or computed in this process, by key: (file stamp, table)
@@ -80,7 +89,7 @@ _LOADED: dict[tuple, tuple] = {}
 
 def fe_excitation(pair, torques: Sequence[float], n_positions: int = 64, settings=None, *,
                   cache_dir: str | Path | bool | None = True, helical_model: str = "3d", progress: bool = False,
-                  config_name: str = "", config_digest: str = "") -> MeshExcitation:
+                  config_name: str = "", config_digest: str = "", n_slices: int | None = None) -> MeshExcitation:
     """Quasi-static FE mesh excitation of ``pair`` at the output ``torques`` [N m] (cached by content).
 
     Parameters
@@ -103,6 +112,9 @@ def fe_excitation(pair, torques: Sequence[float], n_positions: int = 64, setting
         Show a progress bar over the mesh positions when the table is computed.
     config_name, config_digest : str
         Recorded in the table's metadata.
+    n_slices : int, optional
+        Helical pairs: strips over the face width on which the contact lines are sampled (default
+        :data:`DEFAULT_SLICES`).
 
     Returns
     -------
@@ -120,13 +132,14 @@ def fe_excitation(pair, torques: Sequence[float], n_positions: int = 64, setting
         from gearrom.errors import ModelError
 
         raise ModelError(f"fe_excitation: torques must be positive N m, got {list(torques)}")
-    key = table_key(pair, tq, n_positions, settings, helical_model)
+    key = table_key(pair, tq, n_positions, settings, helical_model, n_slices)
     folder = (default_cache_dir() if cache_dir is True else Path(cache_dir) if cache_dir else None)
 
     def compute() -> MeshExcitation:
         log.info("computing the FE excitation table (%d positions x %d torques) of %s", n_positions, len(tq),
                  config_name or "the pair")
-        ltca = build_ltca(pair, settings, cache_dir if cache_dir is not None else None, helical_model=helical_model)
+        ltca = build_ltca(pair, settings, cache_dir if cache_dir is not None else None, helical_model=helical_model,
+                          n_slices=DEFAULT_SLICES if n_slices is None else int(n_slices))
         meta = {"config": config_name, "config_digest": config_digest, "source": "fe", "cache_key": key,
                 "torques_Nm": tq, "n_positions": int(n_positions)}
         return mesh_cycle(ltca, tq, n_positions, metadata=meta, progress=progress).to_excitation()

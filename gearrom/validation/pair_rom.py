@@ -46,6 +46,7 @@ __all__ = [
     "mesh_excitation",
     "polar_inertia",
     "reference_settings",
+    "REFERENCE_SLICES",
     "scaled_excitation",
     "simulate_pair_rom",
     "table_samples",
@@ -94,6 +95,12 @@ def fe_start_mesh_phase(pair) -> float:
 #: resolves the mean TE and the stiffness but not the tip-edge rounding at the start and end of contact,
 #: which sets the harmonics.
 REFERENCE_FLANK_SIZE = 0.00625e-3
+#: Strips over the face width of the helical 3D LTCA tables judged against the explicit references: the
+#: perfect helical pair's static TE harmonics converge slowly in the strip count
+#: (``validation/run_ltca_slice_convergence.py``), and the orders next to the mesh mode at the validation
+#: speeds decide its DTE; the sweep's default resolves the mean TE, the stiffness and the drawing
+#: micro-geometry's GMF lines but not those orders.
+REFERENCE_SLICES = 96
 
 
 def reference_settings(pair, settings=None):
@@ -111,7 +118,7 @@ def reference_settings(pair, settings=None):
 
 
 def mesh_excitation(pair, torque: float, source: str = "fe", n_positions: int = 64, config_name: str = "",
-                    torque_map: bool = False, settings=None):
+                    torque_map: bool = False, settings=None, n_slices: int | None = None):
     """The MeshExcitation for the ROM and a label of where it came from.
 
     ``source``: ``"fe"`` (quasi-static FE LTCA sweep, cached on disk), ``"analytical"`` (ISO-shaped
@@ -120,7 +127,8 @@ def mesh_excitation(pair, torque: float, source: str = "fe", n_positions: int = 
     (:func:`gearrom.excitation.fe.fe_excitation`, the table ``gearrom sweep`` runs), so that the ROM's
     mesh law is the load-dependent force-deflection map; otherwise the table at ``torque`` only (secant law).
     ``settings``: 2D LTCA mesh settings (:class:`gearrom.fe.mesh2d.MeshSettings`; default the sweep's),
-    e.g. :func:`reference_settings`.
+    e.g. :func:`reference_settings`. ``n_slices``: strips over the face width of a helical table (with
+    ``torque_map``; default the sweep's), e.g. :data:`REFERENCE_SLICES`.
     """
     if source not in ("fe", "analytical", "auto"):
         raise ModelError(f"excitation source must be 'fe', 'analytical' or 'auto', got {source!r}")
@@ -132,9 +140,10 @@ def mesh_excitation(pair, torque: float, source: str = "fe", n_positions: int = 
                 from gearrom.excitation.fe import torque_map as torques_about
 
                 torques = torques_about(float(torque))
-                ex = fe_excitation(pair, torques, n_positions, settings)
+                ex = fe_excitation(pair, torques, n_positions, settings, n_slices=n_slices)
+                strips = f", {n_slices} strips" if pair.is_helical and n_slices is not None else ""
                 return ex, (f"fe_ltca ({n_positions} positions, torque map {', '.join(f'{t:g}' for t in torques)} "
-                            f"N m{grid})")
+                            f"N m{grid}{strips})")
             from gearrom.fe.sweep import stiffness_sweep
 
             ex = stiffness_sweep(pair, [float(torque)], n_positions, settings).to_excitation()

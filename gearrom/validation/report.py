@@ -26,8 +26,8 @@ from gearrom.errors import ConfigError
 from gearrom.spectral import spectrum
 from gearrom.validation.compare import PERIODIC_ORDERS, TOLERANCES, compare_metrics, steady_window, te_metrics
 from gearrom.validation.gates import record_gates
-from gearrom.validation.pair_rom import (PairRomSetup, mesh_excitation, polar_inertia, reference_settings,
-                                         scaled_excitation, simulate_pair_rom, table_samples)
+from gearrom.validation.pair_rom import (REFERENCE_SLICES, PairRomSetup, mesh_excitation, polar_inertia,
+                                         reference_settings, scaled_excitation, simulate_pair_rom, table_samples)
 from gearrom.validation.records import (DEFAULT_FE_DIR, FE_INTEGRATIONS, FERecord, check_record_pair, load_fe_record,
                                         record_prefix, record_stem, replace_meta)
 
@@ -341,7 +341,8 @@ def validate(config: str, rpms, fe_dir: str | Path | None = None, fresh: bool = 
         tkey = (torque, loaded)
         if tkey not in cache:
             cache[tkey] = mesh_excitation(pair, torque, excitation_source, config_name=cfg.name, torque_map=loaded,
-                                          settings=reference_settings(pair, fe_settings) if loaded else None) + (None,)
+                                          settings=reference_settings(pair, fe_settings) if loaded else None,
+                                          n_slices=REFERENCE_SLICES if loaded else None) + (None,)
             if table == "explicit_scaled":
                 cache[tkey] = _explicit_scaled(pair, cache[tkey][0], fe_dir, torque)
         ex, ex_label, provenance = cache[tkey]

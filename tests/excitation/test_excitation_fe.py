@@ -121,3 +121,16 @@ def test_drawing_tip_relief_reaches_the_sweep_through_the_table(spur_fe_rig_conf
             assert sim[m - 1] == pytest.approx(abs(table[m]), rel=0.03), (name, m)
         gmf[name] = abs(table[1])
     assert abs(gmf["relief"] / gmf["nominal"] - 1) > 0.2
+
+
+def test_helical_strip_count_is_part_of_the_table_key():
+    """A helical table on another strip count is another table; the default strip count keeps the key
+    that tables without the setting have (cached tables stay valid), and a spur table has no strips."""
+    from gearrom.excitation.fe import DEFAULT_SLICES, table_key
+
+    helical = load_config("thesis-helical").pair
+    spur = load_config("thesis-spur").pair
+    base = table_key(helical, [120.0], 64)
+    assert table_key(helical, [120.0], 64, n_slices=DEFAULT_SLICES) == base
+    assert table_key(helical, [120.0], 64, n_slices=96) != base
+    assert table_key(spur, [120.0], 64, n_slices=96) == table_key(spur, [120.0], 64)
