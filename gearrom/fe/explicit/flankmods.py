@@ -62,14 +62,13 @@ def micro_enabled(pair) -> bool:
     return any(g.micro.enabled for g in pair.gears)
 
 
-
 def apply_flank_modifications(pair, nodes: np.ndarray, base, z_gear, loops, flanks, centres) -> np.ndarray:
-    """``nodes`` (3D, m) of an extruded helical pair with every loaded-flank node moved by its gear's removal.
+    """``nodes`` (3D, m) of an extruded helical pair with every contact-set node moved by its gear's removal.
 
     ``base``: per gear ``(first 2D node, end 2D node, first 3D node, layer count)`` (the extrusion's
     layout: each layer is a rigidly turned copy of the section); ``z_gear``: per gear the layer planes (m,
     from the middle of the face width); ``loops``: per gear the section outline in order (section-local
-    node indices, either direction); ``flanks``: per gear the loaded-flank nodes (section-local);
+    node indices, either direction); ``flanks``: per gear the contact-set nodes (section-local);
     ``centres``: per gear the transverse centre (m).
     """
     out = np.array(nodes, float)
