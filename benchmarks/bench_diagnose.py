@@ -119,7 +119,8 @@ def run_case(tmp: Path, name: str, sims: dict) -> dict:
            "found": [(e["effect"], e["target"]) for e in res.effects],
            "error_before_rms_um": s["error_before_rms_um"], "error_after_rms_um": s["error_after_rms_um"],
            "noise_rms_um": s["noise_rms_um"],
-           "unexplained": [(round(u["frequency_hz"], 1), u["kind"], u["order_out"]) for u in res.unexplained][:4],
+           "unexplained": [(None if u["frequency_hz"] is None else round(u["frequency_hz"], 1), u["kind"], u["order_out"])
+                           for u in res.unexplained][:4],
            "ambiguities": [(a["chosen"], a["alternative"]) for a in s["ambiguities"]]}
     info = runs[0][1]
     if eff is not None:

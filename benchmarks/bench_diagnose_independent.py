@@ -9,7 +9,8 @@ load ripple at a non-integer output order, a pitted tooth).
 Flank modifications are compared normal to the flank (datasim states them on the transverse line of
 action: x cos(beta_b)). Criteria (from 1 x tolerance up): the effect is named first with the right target, its size is
 within 25 % of the truth, the error rms after is at most half the error before. Clean: no effect
-added. Load ripple: reported unexplained at its output order. 0.5 x and the pitted tooth are
+added. Load ripple: reported unexplained at its output order. Pitted tooth: reported unexplained as a
+tooth-local pulse of the right gear within one tooth of the pitted one. 0.5 x and the set-back tooth are
 reported, not judged. A miss is reported with its cause (what came first, the size, the errors).
 
 Each case also gets ``observability``: what the effect changes in datasim's own ideal-encoder TE
@@ -120,7 +121,8 @@ def cases(pair: str, sizes: tuple[float, ...]) -> list[tuple[str, Case, dict]]:
     out.append(("load_ripple", Case("load_ripple", (LoadRipple(3.37, 3.0),)), {"unexplained_order_out": 3.37}))
     out.append(("setback_tooth_2x", Case("setback_tooth_2x", (PitchError("input_gear", 5, 32.0),)),
                 {"report_only": True}))
-    out.append(("pitted_tooth", Case("pitted_tooth", (DamagedTooth("input_gear", 11, 20.0),)), {"report_only": True}))
+    out.append(("pitted_tooth", Case("pitted_tooth", (DamagedTooth("input_gear", 11, 20.0),)),
+                {"unexplained_pulse": ("input", 11)}))
     return out
 
 
@@ -147,7 +149,8 @@ def judge(summary: dict, exp: dict) -> dict:
     found = [(e["effect"], e["target"], _size(e)) for e in eff]
     out = {"found": found, "before_um": before, "after_um": after,
            "unexplained": [{k: u.get(k) for k in ("kind", "frequency_hz", "order", "order_out", "amplitude_um",
-                                                  "integer_order")} for u in summary["unexplained"]]}
+                                                  "integer_order", "shaft", "tooth_index") if k in u}
+                           for u in summary["unexplained"]]}
     causes = []
     identified = None
     if exp.get("clean"):
@@ -160,6 +163,13 @@ def judge(summary: dict, exp: dict) -> dict:
         ok = bool(hit)
         if not ok:
             causes.append(f"no unexplained line at output order {o}")
+    elif "unexplained_pulse" in exp:
+        shaft, k = exp["unexplained_pulse"]
+        hit = [u for u in summary["unexplained"] if u["kind"] == "tooth_local_pulse" and u["shaft"] == shaft]
+        ok = bool(hit) and any(min((u["tooth_index"] - k) % u["z"], (k - u["tooth_index"]) % u["z"]) <= 1 for u in hit)
+        if not ok:
+            causes.append(f"no unexplained tooth-local pulse at tooth {k} (+-1) of the {shaft} gear "
+                          f"(pulses: {[(u['shaft'], u['tooth_index']) for u in hit]})")
     elif exp.get("report_only"):
         ok = None
     else:

@@ -11,6 +11,9 @@
   ``order_tracking`` (same order), ``undetermined`` when one speed cannot tell.
 * :func:`impulsiveness`: crest factor of the synchronous average per revolution of each shaft
   (a displaced tooth gives an impulsive once-per-rev pattern, runout a smooth one).
+* :func:`tooth_local_pulses`: a pulse at one tooth of either gear left in a residual, from the
+  synchronous average over that gear's revolutions with its tooth-periodic part removed; it reports
+  out-of-library tooth damage (a pit, a chipped tooth) that no order line shows on its own.
 """
 from __future__ import annotations
 
@@ -222,4 +225,79 @@ def dependence(runs: list[RunData], tables: list[list[dict]], labels=("1x f_in",
             trend = f"varies (largest at {vals[k][0]:.0f} rpm, {vals[k][1]:.0f} N m)"
         out.append({"line": lab, "runs": [{"rpm_in": v[0], "torque_out_Nm": v[1], "amplitude_um": v[2]} for v in vals],
                     "trend": trend})
+    return out
+
+
+#: bins of the synchronous average per tooth pitch (:func:`tooth_local_pulses`)
+PULSE_BINS_PER_PITCH = 16
+#: a tooth-local pulse: the window of ``ceil(eps_gamma) + 1`` pitches around it holds at least this share of the
+#: synchronous average's energy (white noise puts ``(ceil(eps_gamma) + 1) / z`` of it there) ...
+PULSE_CONCENTRATION = 0.5
+#: ... and its rms over the window is at least this many times the standard error of the average
+PULSE_SNR = 4.0
+
+
+def _shaft_average(theta: np.ndarray, x: np.ndarray, z: int) -> tuple[np.ndarray, float] | None:
+    """Synchronous average of ``x`` over the whole revolutions of a shaft at angles ``theta`` (rad, from the
+    record's angle zero), on :data:`PULSE_BINS_PER_PITCH` bins per pitch of its ``z`` teeth, with its
+    tooth-periodic part (the mesh orders) and mean removed; and the standard error of one bin (m, from the
+    scatter across revolutions). None with fewer than 3 revolutions."""
+    n = PULSE_BINS_PER_PITCH * z
+    start = math.ceil(theta[0] / (2 * math.pi))
+    n_rev = int(math.floor(theta[-1] / (2 * math.pi))) - start
+    if n_rev < 3:
+        return None
+    grid = 2 * math.pi * (start + np.arange(n * n_rev) / n)
+    revs = np.interp(grid, theta, x).reshape(n_rev, n)
+    avg = revs.mean(axis=0)
+    avg = avg - np.tile(avg.reshape(z, PULSE_BINS_PER_PITCH).mean(axis=0), z)
+    se = float(np.sqrt(np.mean(revs.var(axis=0, ddof=1)) / n_rev))
+    return avg - avg.mean(), se
+
+
+def tooth_local_pulses(runs: list[RunData], residuals: list[np.ndarray], eps_gamma: float) -> list[dict]:
+    """Pulses at one tooth of either gear in the residuals of ``runs`` (one array per run, m).
+
+    For each shaft and run: the synchronous average over the shaft's revolutions without its
+    tooth-periodic part; the window of ``ceil(eps_gamma) + 1`` pitches with the most energy (a tooth is in
+    mesh over ``eps_gamma`` pitches); a pulse when the window holds :data:`PULSE_CONCENTRATION` of the
+    energy and its rms exceeds :data:`PULSE_SNR` standard errors. ``tooth_index`` counts teeth from the
+    shaft's angle zero and names the tooth that enters mesh ``eps_gamma / 2`` pitches before the window's
+    centre (the convention of the ``pitch_error`` effect); ``orders`` are the three largest shaft orders
+    of the average (amplitude, um). One item per shaft seen in at least one run.
+    """
+    out = []
+    width = math.ceil(eps_gamma) + 1
+    for shaft, z_of, th_of in (("input", lambda r: r.mesh.z1, lambda r: r.theta_in_rad),
+                               ("output", lambda r: r.mesh.z2, lambda r: r.theta_out_rad)):
+        seen = []
+        for run, x in zip(runs, residuals):
+            z = z_of(run)
+            sa = _shaft_average(th_of(run), x, z)
+            if sa is None or z <= width:
+                continue
+            avg, se = sa
+            w = width * PULSE_BINS_PER_PITCH
+            e2 = np.concatenate([avg, avg[:w]]) ** 2
+            win = np.convolve(e2, np.ones(w), "valid")[:avg.size]
+            k = int(np.argmax(win))
+            share = float(win[k] / max(np.sum(avg ** 2), 1e-300))
+            rms_win = math.sqrt(win[k] / w)
+            if share < PULSE_CONCENTRATION or rms_win < PULSE_SNR * se:
+                continue
+            i = k + np.arange(w)                                       # the window's bins, energy centroid
+            centre = float(np.sum(i * e2[i]) / np.sum(e2[i])) / PULSE_BINS_PER_PITCH   # pitches from the angle zero
+            spec = 2 * np.abs(np.fft.rfft(avg)) / avg.size
+            top = np.argsort(spec[1:])[::-1][:3] + 1
+            seen.append({"run": run.name, "tooth_index": int(round(centre - eps_gamma / 2)) % z,
+                         "centre_deg": float(centre * 360.0 / z % 360.0), "rms_um": rms_win / UM,
+                         "peak_to_peak_um": float(np.ptp(avg)) / UM, "energy_share": share,
+                         "standard_error_um": se / UM,
+                         "orders": [{"order": int(q), "amplitude_um": float(spec[q]) / UM} for q in top]})
+        if seen:
+            best = max(seen, key=lambda s: s["rms_um"])
+            out.append({"kind": "tooth_local_pulse", "shaft": shaft, "gear": f"{shaft}_gear", "z": z_of(runs[0]),
+                        "tooth_index": best["tooth_index"], "amplitude_um": best["peak_to_peak_um"],
+                        "frequency_hz": None, "order": None, "order_out": None,
+                        "integer_order": f"{shaft} order 1 pulse train", "runs_seen": len(seen), "per_run": seen})
     return out

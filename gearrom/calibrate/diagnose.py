@@ -201,6 +201,13 @@ def _assemble(ctx: Context, config, sim, D, accepted, steps, after) -> Diagnosis
         for t in accepted:
             if any(PLUGINS[t.cand.name].explains_line(t.cand.target, lab) for lab in labs):
                 u["at_lines_of"] = t.cand.name
+    # tooth-local pulses (out-of-library tooth damage) in the after-residual; at a gear with a fitted
+    # tooth-local effect they are its misfit
+    for u in chz.tooth_local_pulses([m.run for m in models], res_a, ctx.pair.eps_gamma):
+        for t in accepted:
+            if PLUGINS[t.cand.name].explains_line(t.cand.target, u["integer_order"]):
+                u["at_lines_of"] = t.cand.name
+        unexplained.append(u)
     noise_line = [m.noise_m * math.sqrt(2 / m.run.t_s.size) for m in models]
     characterization = {
         "peaks_before": chz.classify_peaks([m.run for m in models], peaks_b),

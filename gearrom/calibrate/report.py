@@ -94,6 +94,12 @@ class DiagnosisResult:
         if s["unexplained"]:
             lines.append("Unexplained residual components:")
         for u in s["unexplained"]:
+            if u["kind"] == "tooth_local_pulse":
+                lines.append(f"    pulse at tooth {u['tooth_index']} of the {u['shaft']} gear, once per its revolution, "
+                             f"{u['amplitude_um']:.3g} um p-p (seen in {u['runs_seen']} run(s); out of the library: "
+                             "tooth damage or a local flank error)"
+                             + (f" [residual misfit of {u['at_lines_of']}]" if u.get("at_lines_of") else ""))
+                continue
             o = f"order {u['order']:.3f} (output order {u['order_out']:.3f})" if u["order"] is not None else "no order"
             lines.append(f"    {u['frequency_hz']:.1f} Hz, {o}, {u['kind']}, {u['amplitude_um']:.3g} um"
                          + (f" (at {u['integer_order']})" if u.get("integer_order") else "")

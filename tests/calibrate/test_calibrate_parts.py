@@ -255,3 +255,29 @@ def test_fe_micro_change_agrees_with_slice_model(pairs, config, mods):
     assert abs(c_fe) == pytest.approx(abs(c_sl), rel=0.25)
     assert abs(math.degrees(np.angle(c_fe / c_sl))) < 30.0
     assert np.all(rk > 0.5) and np.all(rk < 1.5)
+
+
+def test_tooth_local_pulse_found_at_its_tooth_and_not_in_smooth_or_random_residuals():
+    """A residual with a pulse at one input tooth (a raised-cosine bump over eps_gamma = 4 pitches, entering
+    mesh at tooth 11 of 32: the pattern a pitted tooth leaves) plus white noise: reported as a tooth-local
+    pulse of the input gear at tooth 11, not of the output gear. A once-per-revolution sinusoid of the
+    same energy (runout) and the noise alone are not: the first is spread over the revolution, the second
+    is at the standard error of the average."""
+    from gearrom.calibrate.residual import RunData
+    from gearrom.signal import GearMeshInfo
+
+    z1, z2, eps_gamma = 32, 41, 4.0
+    mesh = GearMeshInfo(z1, z2, 0.0266, 0.0341, 0.0283, 0.0363)
+    th1 = np.linspace(0, 8 * 2 * math.pi, 8 * 32 * 64)
+    th2 = th1 * z1 / z2
+    run = RunData("x", 1250.0, 1250.0, 120.0, th1 / 130.9, th1, th2, np.zeros((3, th1.size)), 16e3, mesh)
+    pitch = 2 * math.pi / z1
+    u = ((th1 % (2 * math.pi)) - 11 * pitch) / (eps_gamma * pitch)          # 0..1 while tooth 11 is in mesh
+    pulse = np.where((u >= 0) & (u <= 1), 0.5 * (1 - np.cos(2 * math.pi * np.clip(u, 0, 1))), 0.0) * 1e-6
+    noise = np.random.default_rng(3).normal(0.0, 0.1e-6, th1.size)
+    found = chz.tooth_local_pulses([run], [pulse + noise], eps_gamma)
+    assert [(p["shaft"], p["tooth_index"]) for p in found] == [("input", 11)]
+    assert found[0]["amplitude_um"] == pytest.approx(1.0, rel=0.2)
+    runout = np.cos(th1 + 0.4) * math.sqrt(2 * np.mean(pulse ** 2))
+    assert chz.tooth_local_pulses([run], [runout + noise], eps_gamma) == []
+    assert chz.tooth_local_pulses([run], [noise], eps_gamma) == []
