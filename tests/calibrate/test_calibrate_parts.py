@@ -281,3 +281,16 @@ def test_tooth_local_pulse_found_at_its_tooth_and_not_in_smooth_or_random_residu
     runout = np.cos(th1 + 0.4) * math.sqrt(2 * np.mean(pulse ** 2))
     assert chz.tooth_local_pulses([run], [runout + noise], eps_gamma) == []
     assert chz.tooth_local_pulses([run], [noise], eps_gamma) == []
+
+
+def test_report_text_names_a_tooth_local_pulse():
+    """The readable summary of a diagnosis with an unexplained tooth-local pulse names the gear and tooth."""
+    from gearrom.calibrate.report import DiagnosisResult
+
+    summary = {"runs": [], "model": {"simulator": "rom", "config": "x.toml"}, "error_before_rms_um": 0.15,
+               "error_after_rms_um": 0.15, "noise_rms_um": 0.01, "effects": [], "ambiguities": [],
+               "unexplained": [{"kind": "tooth_local_pulse", "shaft": "input", "gear": "input_gear", "z": 32,
+                                "tooth_index": 11, "amplitude_um": 0.85, "frequency_hz": None, "order": None,
+                                "order_out": None, "integer_order": "input order 1 pulse train", "runs_seen": 2}]}
+    text = DiagnosisResult(summary, []).text()
+    assert "pulse at tooth 11 of the input gear" in text and "0.85 um p-p" in text
