@@ -40,6 +40,7 @@ import argparse
 import json
 import logging
 import math
+import os
 import sys
 import time
 from pathlib import Path
@@ -140,6 +141,17 @@ def _size(e: dict) -> float | None:
         return p.get("scale")
     v = p.get(_size_key(e["effect"]))
     return abs(v) if v is not None else None
+
+
+def _git_commit() -> str | None:
+    """The checked-out commit of this repository (None outside a git checkout)."""
+    import subprocess
+
+    try:
+        return subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=Path(__file__).parent, capture_output=True,
+                              text=True, check=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return None
 
 
 def judge(summary: dict, exp: dict) -> dict:
@@ -403,7 +415,11 @@ def main(argv=None) -> int:
         res = diagnose(config, files)
         t2 = time.perf_counter()
         entry = judge(res.summary, exp)
-        entry.update(truth=case.to_dict()["effects"], simulate_s=t1 - t0, diagnose_s=t2 - t1)
+        # when and under what load the case ran: a matrix filled over several sittings mixes code versions,
+        # and a diagnosis timed beside another job is slower than bench_diagnose_speed's figure
+        entry.update(truth=case.to_dict()["effects"], simulate_s=t1 - t0, diagnose_s=t2 - t1,
+                     run_utc=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+                     git_commit=_git_commit(), load_average_1min=os.getloadavg()[0])
         doc["cases"][cid] = entry
         log.info("[%d/%d] %s: pass=%s found=%s before %.3g after %.3g um (diagnosis %.0f s) %s", i + 1, len(todo),
                  cid, entry["pass"], entry["found"][:2], entry["before_um"], entry["after_um"], t2 - t1,
