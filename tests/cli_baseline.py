@@ -58,7 +58,7 @@ def run(name: str, out: Path) -> dict:
     return json.loads(buf.getvalue() if where == "stdout" else (out / where).read_text())
 
 
-def differences(a, b, path: str = "", rtol: float = 1e-6, atol: float = 1e-9) -> list[str]:
+def differences(a, b, path: str = "", rtol: float = 1e-5, atol: float = 1e-3) -> list[str]:
     """Where two JSON values differ beyond numerical noise (floats within ``rtol``/``atol``; file paths by
     their file name, as the checkout's location differs)."""
     if isinstance(a, dict) and isinstance(b, dict):
