@@ -273,8 +273,8 @@ def tooth_local_pulses(runs: list[RunData], residuals: list[np.ndarray], eps_gam
         seen = []
         for run, x in zip(runs, residuals):
             z = z_of(run)
-            sa = _shaft_average(th_of(run), x, z)
-            if sa is None or z <= width:
+            sa = None if z <= width else _shaft_average(th_of(run), x, z)
+            if sa is None:
                 continue
             avg, se = sa
             w = width * PULSE_BINS_PER_PITCH
