@@ -196,16 +196,23 @@ def classify_peaks(runs: list[RunData], peaks: list[list[tuple[float, float]]]) 
     return out
 
 
+def _revolutions(theta: np.ndarray, x: np.ndarray, n: int, start: float) -> np.ndarray:
+    """``x`` resampled on ``n`` equal angle steps per revolution of a shaft at angles ``theta`` (rad), from
+    angle ``start`` over the whole revolutions recorded after it: shape (revolutions, n)."""
+    n_rev = max(int((theta[-1] - start) // (2 * math.pi)), 0)
+    grid = start + np.arange(n * n_rev) * 2 * math.pi / n
+    return np.interp(grid, theta, x).reshape(n_rev, n)
+
+
 def impulsiveness(run: RunData, te: np.ndarray) -> dict:
     """Crest factor of the per-revolution synchronous average of ``te`` for each shaft (None if < 1 rev)."""
     out = {}
     for shaft, th in (("input", run.theta_in_rad), ("output", run.theta_out_rad)):
-        n_rev = int((th[-1] - th[0]) / (2 * math.pi))
-        if n_rev < 1:
+        revs = _revolutions(th, te, 256, th[0])
+        if revs.shape[0] < 1:
             out[shaft] = None
             continue
-        grid = th[0] + np.arange(256 * n_rev) * 2 * math.pi / 256
-        avg = np.interp(grid, th, te).reshape(n_rev, 256).mean(axis=0)
+        avg = revs.mean(axis=0)
         avg = avg - avg.mean()
         r = float(np.sqrt(np.mean(avg**2)))
         out[shaft] = float(np.max(np.abs(avg)) / r) if r > 0 else None
@@ -242,13 +249,10 @@ def _shaft_average(theta: np.ndarray, x: np.ndarray, z: int) -> tuple[np.ndarray
     record's angle zero), on :data:`PULSE_BINS_PER_PITCH` bins per pitch of its ``z`` teeth, with its
     tooth-periodic part (the mesh orders) and mean removed; and the standard error of one bin (m, from the
     scatter across revolutions). None with fewer than 3 revolutions."""
-    n = PULSE_BINS_PER_PITCH * z
-    start = math.ceil(theta[0] / (2 * math.pi))
-    n_rev = int(math.floor(theta[-1] / (2 * math.pi))) - start
+    revs = _revolutions(theta, x, PULSE_BINS_PER_PITCH * z, 2 * math.pi * math.ceil(theta[0] / (2 * math.pi)))
+    n_rev = revs.shape[0]
     if n_rev < 3:
         return None
-    grid = 2 * math.pi * (start + np.arange(n * n_rev) / n)
-    revs = np.interp(grid, theta, x).reshape(n_rev, n)
     avg = revs.mean(axis=0)
     avg = avg - np.tile(avg.reshape(z, PULSE_BINS_PER_PITCH).mean(axis=0), z)
     se = float(np.sqrt(np.mean(revs.var(axis=0, ddof=1)) / n_rev))
