@@ -75,7 +75,7 @@ def measure(model, nsteps: int, d: dict | None = None, repeats: int = 1) -> dict
         out[key] = {"n_steps": res.meta["n_steps"], "wall_s": wall, "wall_s_repeats": walls,
                     "element_updates_per_s": res.meta["n_steps"] * ne / wall,
                     "ns_per_element_step": wall / (res.meta["n_steps"] * ne) * 1e9}
-        out["n_colors"] = res.meta["n_colors"]
+        out["n_passes"] = res.meta["n_passes"]
     out["element_updates_per_s"] = max(out["parallel"]["element_updates_per_s"],
                                        out["serial"]["element_updates_per_s"])
     return out

@@ -7,12 +7,13 @@ import math
 import time
 from pathlib import Path
 
+import numba
 import numpy as np
 
 from gearrom.errors import ConfigError, ModelError, RunInterrupted
 from gearrom.fe.explicit.contact import facet_neighbours, facet_sags
 from gearrom.fe.explicit.elements import element_type
-from gearrom.fe.explicit.geometry import color_elements, nodal_omega2
+from gearrom.fe.explicit.geometry import nodal_omega2, schedule_elements
 from gearrom.fe.explicit.loop import (CONTACT_ARRAYS, ELEMENT_ARRAYS, LOAD_ARRAYS, NE_OUT, NODE_ARRAYS, OUTPUT_ARRAYS,
                                       REFERENCE_ARRAYS, STATE_ARRAYS, ramp, run_loop_parallel, run_loop_serial)
 from gearrom.fe.explicit.model import ExplicitModel
@@ -41,7 +42,7 @@ def _element_of_segments(conn: np.ndarray, segs: np.ndarray) -> np.ndarray:
 
 
 def prepare(model: ExplicitModel, safety: float = 0.9, max_candidates: int | None = None) -> dict:
-    """Precompute everything the loop needs (geometry, masses, colours, BC and contact arrays).
+    """Precompute everything the loop needs (geometry, masses, element schedule, BC and contact arrays).
 
     ``max_candidates``: master segments kept per slave node by the contact search (default 8 in 2D, 32 in
     3D: bilinear facets of twisted flanks are long axially, so the facet that holds a node's projection is
@@ -67,11 +68,9 @@ def prepare(model: ExplicitModel, safety: float = 0.9, max_candidates: int | Non
         raise ModelError(f"node {int(np.argmin(mass))} belongs to no element (zero mass)")
     full = np.full(ne, el.full, np.uint8)
     node_w2 = nodal_omega2(conn0, lam_e, mass)
-    color = color_elements(conn0, n)
-    order = np.argsort(color, kind="stable")
-    cptr = np.searchsorted(color[order], np.arange(color.max() + 2)).astype(np.int64)
+    order, bptr, cptr = schedule_elements(conn0, n, numba.get_num_threads())
     d = dict(conn=np.ascontiguousarray(conn0[order]), B=B[order], V0=V0[order], gamma=gamma[order],
-             khg=khg[order], chg=chg[order], cptr=cptr, lam=lam, mu=mu, mass=mass, dim=dim, n=n,
+             khg=khg[order], chg=chg[order], cptr=cptr, bptr=bptr, lam=lam, mu=mu, mass=mass, dim=dim, n=n,
              full=full[order], Bg=np.ascontiguousarray(Bg[order]), Wg=np.ascontiguousarray(Wg[order]))
     # fixed DOFs
     fixmask = np.zeros((n, dim), np.uint8)
@@ -426,7 +425,7 @@ def _run_meta(model: ExplicitModel, d: dict, step_dt: float, nsteps_total: int, 
                 sample_period_s=sample_period, wall_time_s=wall,
                 element_updates_per_s=nsteps_total * model.elements.shape[0] / wall,
                 relative_damping=model.relative_damping,
-                n_colors=int(d["cptr"].size - 1), parallel=parallel, integration=model.integration,
+                n_passes=int(d["cptr"].size - 1), parallel=parallel, integration=model.integration,
                 hourglass_stiffness=model.hourglass_stiffness,
                 hourglass_viscosity=model.hourglass_viscosity, mass_damping=model.mass_damping,
                 material=dict(E_Pa=model.material.E, nu=model.material.nu, rho_kg_m3=model.material.rho),

@@ -205,3 +205,53 @@ def color_elements(elements: np.ndarray, n_nodes: int) -> np.ndarray:
             c += 1
         color[e] = c
     return color
+
+
+def schedule_elements(elements: np.ndarray, n_nodes: int, n_parts: int, block: int = 256):
+    """Order of the element pass of the compiled loop: blocks that may run in parallel, grouped in passes.
+
+    The nodes are split into ``n_parts`` index ranges holding about equal element counts; an element whose
+    nodes all lie in one range belongs to that part, the others (the interfaces) are coloured
+    (:func:`color_elements`). Pass 0 holds one block per part (the parts share no node), each block in the
+    order of its elements' lowest node, so that a thread walks its part of the mesh in node order and finds
+    the nodes of consecutive elements in cache; each colour of the interface elements is a further pass, cut
+    into blocks of ``block`` elements. On meshes numbered with locality (gmsh's, extruded layer by layer)
+    this gathers and scatters far fewer cache lines than a pass per colour over the whole mesh.
+
+    Returns
+    -------
+    order : ndarray (ne,)
+        Element permutation; blocks are contiguous ranges of the permuted elements.
+    bptr : ndarray (nblocks + 1,)
+        Block ``b`` holds the permuted elements ``bptr[b]:bptr[b + 1]`` (run in sequence).
+    cptr : ndarray (npasses + 1,)
+        Pass ``c`` holds the blocks ``cptr[c]:cptr[c + 1]`` (no two share a node: run in parallel).
+    """
+    ne = elements.shape[0]
+    lo = elements.min(axis=1)
+    if ne == 0:
+        return np.zeros(0, np.int64), np.zeros(1, np.int64), np.zeros(1, np.int64)
+    n_parts = max(1, int(n_parts))
+    splits = np.sort(lo)[(np.arange(1, n_parts) * ne) // n_parts]
+    edges = np.concatenate([[0], splits, [n_nodes]])
+    part_lo = np.searchsorted(edges, lo, side="right") - 1
+    part_hi = np.searchsorted(edges, elements.max(axis=1), side="right") - 1
+    inner = np.flatnonzero(part_lo == part_hi)
+    inner = inner[np.lexsort((lo[inner], part_lo[inner]))]
+    bounds = [0] + list(np.cumsum(np.bincount(part_lo[inner], minlength=n_parts)))
+    order = [inner]
+    cptr = [0, n_parts]
+    rest = np.flatnonzero(part_lo != part_hi)
+    if rest.size:
+        color = color_elements(elements[rest], n_nodes)
+        start = bounds[-1]
+        for c in range(color.max() + 1):
+            ids = rest[color == c]
+            ids = ids[np.argsort(lo[ids], kind="stable")]
+            order.append(ids)
+            cuts = list(range(block, ids.size, block)) + [ids.size]
+            bounds += [start + k for k in cuts]
+            start += ids.size
+            cptr.append(cptr[-1] + len(cuts))
+    return (np.concatenate(order).astype(np.int64), np.asarray(bounds, np.int64), np.asarray(cptr, np.int64))
+

@@ -4,7 +4,7 @@ Per step (Belytschko, Liu & Moran, Nonlinear FE, box 6.1, with velocities also a
 
     v^{n+1/2} = v^n + dt/2 a^n ;  u^{n+1} = u^n + dt v^{n+1/2} ;  rigid references likewise, then the
     tied nodes follow their reference exactly ;  f^{n+1} = f(u^{n+1}, v^{n+1/2}) (elements in
-    parallel by colour, contact, loads, damping) ;  a^{n+1} = f / m ;  v^{n+1} = v^{n+1/2} + dt/2 a^{n+1}.
+    parallel by pass, contact, loads, damping) ;  a^{n+1} = f / m ;  v^{n+1} = v^{n+1/2} + dt/2 a^{n+1}.
 
 A rigid reference (centre = the gear axis; its offset from the centre of mass of the tied nodes is
 neglected in the translation-rotation coupling) has generalized forces Q_c = sum f_i, Q_theta = sum (x_i - c) x f_i |_z plus external torque and
@@ -72,7 +72,7 @@ def _table(t, times, vals, npts):
 #: names of the arrays in each argument group of the loop, in order (the driver packs them by these names
 #: from its prepared model ``d``, the run state ``st`` and the output rows ``o``)
 NODE_ARRAYS = ("X", "mass", "kind", "fixmask", "body", "r_center", "r_fd")
-ELEMENT_ARRAYS = ("conn", "B", "V0", "gamma", "khg", "chg", "lam", "mu", "cptr", "full", "Bg", "Wg")
+ELEMENT_ARRAYS = ("conn", "B", "V0", "gamma", "khg", "chg", "lam", "mu", "cptr", "bptr", "full", "Bg", "Wg")
 LOAD_ARRAYS = ("ld_nodes", "ld_ptr", "ld_force", "ld_t", "ld_val", "ld_npts", "ld_fprev", "ld_uprev")
 REFERENCE_ARRAYS = ("r_nodes", "r_ptr", "r_off", "r_M", "r_J", "r_mode", "r_speed", "r_ramp", "r_torque",
                     "r_tramp", "r_k", "r_c", "r_fixtr", "r_kb", "r_cb", "r_pos", "r_vel", "r_acc", "r_th",
@@ -97,7 +97,7 @@ def _run_loop(nsteps, dt, out_every, t0, alpha, alpha_r, margin, cell_h,
     """
     u, v, a, f = state
     X, mass, kind, fixmask, body, r_center, r_fd = nodes
-    conn, B, V0, gamma, khg, chg, lam, mu, cptr, full, Bg, Wg = elements
+    conn, B, V0, gamma, khg, chg, lam, mu, cptr, bptr, full, Bg, Wg = elements
     ld_nodes, ld_ptr, ld_force, ld_t, ld_val, ld_npts, ld_fprev, ld_uprev = loads
     (r_nodes, r_ptr, r_off, r_M, r_J, r_mode, r_speed, r_ramp, r_torque, r_tramp, r_k, r_c, r_fixtr, r_kb, r_cb,
      r_pos, r_vel, r_acc, r_th, r_om, r_al, r_prev) = refs
@@ -186,26 +186,27 @@ def _run_loop(nsteps, dt, out_every, t0, alpha, alpha_r, margin, cell_h,
         whg = 0.0
         phg = 0.0
         for c in range(ncol):
-            e0 = cptr[c]
-            e1 = cptr[c + 1]
+            # the blocks of one pass share no node (geometry.schedule_elements); each runs in sequence
             if dim == 2:
-                for e in prange(e0, e1):
-                    if full[e]:
-                        wint += q4_full_element(e, conn, u, Bg, Wg, lam, mu, f)
-                    else:
-                        r0, r1, r2 = q4_element(e, conn, u, v, B, V0, gamma, khg, chg, lam, mu, f)
-                        wint += r0
-                        whg += r1
-                        phg += r2
+                for b in prange(cptr[c], cptr[c + 1]):
+                    for e in range(bptr[b], bptr[b + 1]):
+                        if full[e]:
+                            wint += q4_full_element(e, conn, u, Bg, Wg, lam, mu, f)
+                        else:
+                            r0, r1, r2 = q4_element(e, conn, u, v, B, V0, gamma, khg, chg, lam, mu, f)
+                            wint += r0
+                            whg += r1
+                            phg += r2
             else:
-                for e in prange(e0, e1):
-                    if full[e]:
-                        wint += hex8_full_element(e, conn, u, Bg, Wg, lam, mu, f)
-                    else:
-                        r0, r1, r2 = hex8_element(e, conn, u, v, B, V0, gamma, khg, chg, lam, mu, f)
-                        wint += r0
-                        whg += r1
-                        phg += r2
+                for b in prange(cptr[c], cptr[c + 1]):
+                    for e in range(bptr[b], bptr[b + 1]):
+                        if full[e]:
+                            wint += hex8_full_element(e, conn, u, Bg, Wg, lam, mu, f)
+                        else:
+                            r0, r1, r2 = hex8_element(e, conn, u, v, B, V0, gamma, khg, chg, lam, mu, f)
+                            wint += r0
+                            whg += r1
+                            phg += r2
         if step > 0:
             acc[0] += phg * dt
         epen = 0.0
@@ -253,27 +254,35 @@ def _run_loop(nsteps, dt, out_every, t0, alpha, alpha_r, margin, cell_h,
             for d in range(4):
                 r_fd[r, d] = 0.0
         if alpha_r > 0.0:
-            for i in range(n):
-                r = body[i]
-                if r < 0 or kind[i] >= 0:
-                    continue
-                px = X[i, 0] + u[i, 0] - r_center[r, 0] - r_pos[r, 0]
-                py = X[i, 1] + u[i, 1] - r_center[r, 1] - r_pos[r, 1]
-                w = r_om[r]
-                cm = alpha_r * mass[i]
-                fx = 0.0 if fixmask[i, 0] else -cm * (v[i, 0] - r_vel[r, 0] + w * py)
-                fy = 0.0 if fixmask[i, 1] else -cm * (v[i, 1] - r_vel[r, 1] - w * px)
-                f[i, 0] += fx
-                f[i, 1] += fy
-                pdr += (fx * fx + fy * fy) / cm
-                r_fd[r, 0] -= fx
-                r_fd[r, 1] -= fy
-                r_fd[r, 3] -= px * fy - py * fx
-                if dim == 3:
-                    fz = 0.0 if fixmask[i, 2] else -cm * (v[i, 2] - r_vel[r, 2])
-                    f[i, 2] += fz
-                    pdr += fz * fz / cm
-                    r_fd[r, 2] -= fz
+            # one parallel pass per reference: the reaction sums are scalar reductions
+            for r in range(nr):
+                sx = 0.0
+                sy = 0.0
+                sz = 0.0
+                st = 0.0
+                for i in prange(n):
+                    if body[i] == r and kind[i] < 0:
+                        px = X[i, 0] + u[i, 0] - r_center[r, 0] - r_pos[r, 0]
+                        py = X[i, 1] + u[i, 1] - r_center[r, 1] - r_pos[r, 1]
+                        w = r_om[r]
+                        cm = alpha_r * mass[i]
+                        fx = 0.0 if fixmask[i, 0] else -cm * (v[i, 0] - r_vel[r, 0] + w * py)
+                        fy = 0.0 if fixmask[i, 1] else -cm * (v[i, 1] - r_vel[r, 1] - w * px)
+                        f[i, 0] += fx
+                        f[i, 1] += fy
+                        pdr += (fx * fx + fy * fy) / cm
+                        sx -= fx
+                        sy -= fy
+                        st -= px * fy - py * fx
+                        if dim == 3:
+                            fz = 0.0 if fixmask[i, 2] else -cm * (v[i, 2] - r_vel[r, 2])
+                            f[i, 2] += fz
+                            pdr += fz * fz / cm
+                            sz -= fz
+                r_fd[r, 0] = sx
+                r_fd[r, 1] = sy
+                r_fd[r, 2] = sz
+                r_fd[r, 3] = st
             if step > 0:
                 acc[2] += pdr * dt
         # ---- free nodes: acceleration, mass damping, second half kick
@@ -444,7 +453,7 @@ def _compiled(name: str, parallel: bool):
     return njit(cache=True, parallel=parallel, fastmath=True)(fn)
 
 
-#: the loop with prange over nodes and over the elements of each colour (large meshes)
+#: the loop with prange over nodes and over the element blocks of each pass (large meshes)
 run_loop_parallel = _compiled("run_loop_parallel", True)
 #: the same loop compiled serially (small meshes: no per-step thread start-up cost)
 run_loop_serial = _compiled("run_loop_serial", False)
