@@ -16,10 +16,19 @@ throughput on the helical gear pair mesh of validation/run_explicit_helical.py (
 twisted layers, with the node-to-facet contact of the flanks), the whole step including contact, and the
 same steps without contact (the contact's share of the step), each the best of three timed runs (the
 spread is in ``wall_s_repeats``); target ``HELICAL_TARGET`` on 2 cores.
+
+``--reference-only``: the step of the helical validation reference itself (whole gear bodies, 16 layers, fully
+integrated Hex8, flank contact, relative damping; ``validation/run_ringdown.REFERENCE_MESH_HELICAL``) from its
+committed loaded static state at 2000 rpm: wall time per step and element updates per second, on both cores,
+with the element schedule of the loop (:func:`gearrom.fe.explicit.geometry.schedule_elements`) and, in the
+same run, with one pass per greedy colour over the whole mesh (the element order without node-range parts),
+and the share of the elements, the contact and the damping in the step (the same steps without contact and
+without relative damping). Writes ``hex8_helical_reference`` into the results file.
 """
 from __future__ import annotations
 
 import os
+import sys
 import time
 
 import numba
@@ -122,6 +131,83 @@ def measure_helical(nsteps: int = 400, integration: str = "reduced") -> dict:
     return out
 
 
+def _colour_schedule(d: dict, conn: np.ndarray, n: int, block: int = 256) -> dict:
+    """``d`` with the element order of one parallel pass per greedy colour over the whole mesh."""
+    from gearrom.fe.explicit.geometry import color_elements
+
+    color = color_elements(conn, n)
+    order = np.argsort(color, kind="stable")
+    bptr, cptr, start = [0], [0], 0
+    for c in range(color.max() + 1):
+        size = int(np.count_nonzero(color == c))
+        bptr += [start + k for k in list(range(block, size, block)) + [size]]
+        start += size
+        cptr.append(len(bptr) - 1)
+    out = dict(d)
+    inv = np.empty_like(d["element_order"])
+    inv[d["element_order"]] = np.arange(d["element_order"].size)     # prepared position of each model element
+    pos = inv[order]
+    for k in ("conn", "B", "V0", "gamma", "khg", "chg", "full", "Bg", "Wg"):
+        out[k] = np.ascontiguousarray(d[k][pos])
+    out["bptr"], out["cptr"] = np.asarray(bptr, np.int64), np.asarray(cptr, np.int64)
+    return out
+
+
+def measure_reference(nsteps: int = 60) -> dict:
+    """Wall time per step of the helical validation reference model (module docstring, ``--reference-only``)."""
+    import dataclasses
+    import warnings
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    sys.path.insert(0, str(root / "validation"))
+    from run_ringdown import REFERENCE_MESH_HELICAL as mesh, reference_meshes, reference_setup
+
+    from gearrom.config import load_config
+    from gearrom.fe.explicit.gearpair import loaded_model, stored_start_state
+    from gearrom.fe.explicit.helicalpair import helical_pair_model
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        pair = load_config("thesis-helical").pair
+    state_file = root / "validation" / "checkpoints" / "helical_2000rpm_loaded.ckpt.npz"
+    setup = reference_setup(mesh, rpm_in=2000.0, torque_out=120.0, mu=0.0, start="loaded",
+                            relative_damping=146800.0)
+    model, info = helical_pair_model(pair, reference_meshes(pair, mesh), setup, mesh["n_layers"])
+
+    def missing():
+        raise SystemExit(f"{state_file}.loaded.npz (the reference's loaded static state) is missing")
+
+    state = stored_start_state(state_file, ".loaded.npz", "te", model.nodes.shape, 120.0, missing)
+    model = loaded_model(model, info, setup, (state[0], state[1], 0.0))
+    d = prepare(model, 0.9, mesh["max_candidates"])
+    ne = model.elements.shape[0]
+    dt = mesh["mass_scaling_dt_s"]
+    empty = np.zeros(0, np.int64)
+    bare = {**d, "slaves": empty, "s_pair": empty, "cand": np.zeros((0, d["cand"].shape[1]), np.int64),
+            "ncand": empty.copy(), "gap": np.zeros(0), "c_nodes": empty.copy()}
+    undamped = dataclasses.replace(model, relative_damping=0.0)
+    variants = {"step": (model, d), "colour_passes": (model, _colour_schedule(d, model.elements, model.nodes.shape[0])),
+                "without_contact": (model, bare), "without_damping": (undamped, d), "elements_only": (undamped, bare)}
+    out = {"n_elements": ne, "n_nodes": int(model.nodes.shape[0]), "n_contact_slaves": int(d["slaves"].size),
+           "dt_s": dt, "n_steps": nsteps, "n_passes": int(d["cptr"].size - 1),
+           "n_passes_colour": int(variants["colour_passes"][1]["cptr"].size - 1)}
+    for name, (m, dd) in variants.items():
+        solve(m, 4 * dt, sample_period=2 * dt, prepared=dd, parallel=True, chunks=1)     # compile / warm up
+        t0 = time.perf_counter()
+        res = solve(m, nsteps * dt, sample_period=nsteps * dt / 2, prepared=dd, parallel=True, chunks=1)
+        wall = (time.perf_counter() - t0) / res.meta["n_steps"]
+        out[name] = {"ms_per_step": wall * 1e3, "element_updates_per_s": ne / wall}
+        print(f"{name}: {wall * 1e3:.1f} ms per step, {ne / wall:.3g} element updates per s", flush=True)
+    out["speedup_vs_colour_passes"] = out["colour_passes"]["ms_per_step"] / out["step"]["ms_per_step"]
+    out["elements_share"] = out["elements_only"]["ms_per_step"] / out["step"]["ms_per_step"]
+    out["record_compute_h"] = out["step"]["ms_per_step"] * 1e-3 * 18.75e-3 / dt / 3600
+    out["model"] = ("helical validation reference (run_ringdown.REFERENCE_MESH_HELICAL), loaded start at 2000 rpm "
+                    "and 120 N m, 2 threads; record_compute_h: one 18.75 ms record (10 settling + 10 recorded "
+                    "mesh periods at 2000 rpm) at this step")
+    return out
+
+
 def main() -> None:
     import json
     import sys
@@ -134,6 +220,14 @@ def main() -> None:
         figures["full_integration_load_average_1_5_15"] = list(os.getloadavg())
         figures["full_integration_note"] = ("2x2 / 2x2x2 Gauss elements without hourglass control vs the one-point "
                                             "elements, measured back to back in one run (machine section: its date)")
+        write_result("bench_explicit_kernel", figures)
+        return
+    if "--reference-only" in sys.argv:
+        from _common import RESULTS
+
+        figures = json.loads((RESULTS / "bench_explicit_kernel.json").read_text())["figures"]
+        figures["hex8_helical_reference"] = measure_reference()
+        figures["hex8_helical_reference_load_average_1_5_15"] = list(os.getloadavg())
         write_result("bench_explicit_kernel", figures)
         return
     if "--helical-only" in sys.argv:

@@ -31,3 +31,26 @@ def test_hex8_box_volume_mass_and_hourglass(integration):
         assert el.full and not el.khg.any() and el.Wg.sum() == pytest.approx(vol, rel=1e-12)
     else:
         assert not el.full and np.all(el.khg > 0)
+
+
+@pytest.mark.parametrize("n_parts", [1, 2, 3])
+def test_element_schedule_is_race_free_and_complete(n_parts):
+    """The loop's element schedule (geometry.schedule_elements) on a shuffled box: every element once, and no two
+    blocks of one pass share a node (the condition for scattering their forces in parallel without a race);
+    each part holds elements, and with more than one part some elements straddle two parts' nodes."""
+    from gearrom.fe.explicit.geometry import schedule_elements
+
+    nodes, conn = box_hex8(0.01, 0.006, 0.005, 10, 6, 5)
+    conn = conn[np.random.default_rng(1).permutation(conn.shape[0])]
+    order, bptr, cptr = schedule_elements(conn, nodes.shape[0], n_parts, block=16)
+    assert np.array_equal(np.sort(order), np.arange(conn.shape[0]))
+    assert bptr[0] == 0 and bptr[-1] == conn.shape[0] and np.all(np.diff(bptr) >= 0)
+    assert cptr[1] == n_parts and cptr[-1] == bptr.size - 1
+    ordered = conn[order]
+    for c in range(cptr.size - 1):
+        owner = {}
+        for b in range(cptr[c], cptr[c + 1]):
+            for node in np.unique(ordered[bptr[b]:bptr[b + 1]]):
+                assert owner.setdefault(int(node), b) == b, f"pass {c}: node {node} in blocks {owner[node]} and {b}"
+    assert np.all(np.diff(bptr[:n_parts + 1]) > 0)
+    assert (bptr[-1] == bptr[n_parts]) == (n_parts == 1)

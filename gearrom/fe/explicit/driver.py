@@ -70,7 +70,8 @@ def prepare(model: ExplicitModel, safety: float = 0.9, max_candidates: int | Non
     node_w2 = nodal_omega2(conn0, lam_e, mass)
     order, bptr, cptr = schedule_elements(conn0, n, numba.get_num_threads())
     d = dict(conn=np.ascontiguousarray(conn0[order]), B=B[order], V0=V0[order], gamma=gamma[order],
-             khg=khg[order], chg=chg[order], cptr=cptr, bptr=bptr, lam=lam, mu=mu, mass=mass, dim=dim, n=n,
+             khg=khg[order], chg=chg[order], cptr=cptr, bptr=bptr, element_order=order, lam=lam, mu=mu,
+             mass=mass, dim=dim, n=n,
              full=full[order], Bg=np.ascontiguousarray(Bg[order]), Wg=np.ascontiguousarray(Wg[order]))
     # fixed DOFs
     fixmask = np.zeros((n, dim), np.uint8)
