@@ -2,8 +2,9 @@
 
 Explicit FE: 0.3 mm outline / 2 mm body Q4 meshes (as tests/fe_explicit), 2000 rpm, 120 Nm ramped in
 over 0.15 ms, frictionless, both gears at speed, 1.2 ms, selective mass scaling of the smallest elements
-(step limited by the contact instead; the added mass is asserted negligible). ROM: the same system (prescribed input speed,
-output inertia integrated over the same coarse quad mesh, same torque ramp, no damping), mesh table
+(step limited by the contact instead; the added mass is asserted negligible). ROM: the same system
+(prescribed input speed, output inertia integrated over the same coarse quad mesh, same torque ramp, no
+damping), mesh table
 from the quasi-static FE LTCA with 0.3 mm flank elements (same outline resolution; a different
 discretisation and a different contact method: influence coefficients + Hertz, no penalty).
 
