@@ -187,26 +187,21 @@ def _run_loop(nsteps, dt, out_every, t0, alpha, alpha_r, margin, cell_h,
         phg = 0.0
         for c in range(ncol):
             # the blocks of one pass share no node (geometry.schedule_elements); each runs in sequence
-            if dim == 2:
-                for b in prange(cptr[c], cptr[c + 1]):
-                    for e in range(bptr[b], bptr[b + 1]):
-                        if full[e]:
+            for b in prange(cptr[c], cptr[c + 1]):
+                for e in range(bptr[b], bptr[b + 1]):
+                    if full[e]:
+                        if dim == 2:
                             wint += q4_full_element(e, conn, u, Bg, Wg, lam, mu, f)
                         else:
-                            r0, r1, r2 = q4_element(e, conn, u, v, B, V0, gamma, khg, chg, lam, mu, f)
-                            wint += r0
-                            whg += r1
-                            phg += r2
-            else:
-                for b in prange(cptr[c], cptr[c + 1]):
-                    for e in range(bptr[b], bptr[b + 1]):
-                        if full[e]:
                             wint += hex8_full_element(e, conn, u, Bg, Wg, lam, mu, f)
+                    else:
+                        if dim == 2:
+                            r0, r1, r2 = q4_element(e, conn, u, v, B, V0, gamma, khg, chg, lam, mu, f)
                         else:
                             r0, r1, r2 = hex8_element(e, conn, u, v, B, V0, gamma, khg, chg, lam, mu, f)
-                            wint += r0
-                            whg += r1
-                            phg += r2
+                        wint += r0
+                        whg += r1
+                        phg += r2
         if step > 0:
             acc[0] += phg * dt
         epen = 0.0
