@@ -182,7 +182,7 @@ def measure_reference(nsteps: int = 60) -> dict:
     model = loaded_model(model, info, setup, (state[0], state[1], 0.0))
     d = prepare(model, 0.9, mesh["max_candidates"])
     ne = model.elements.shape[0]
-    dt = mesh["mass_scaling_dt_s"]
+    dt = d["dt"]
     empty = np.zeros(0, np.int64)
     bare = {**d, "slaves": empty, "s_pair": empty, "cand": np.zeros((0, d["cand"].shape[1]), np.int64),
             "ncand": empty.copy(), "gap": np.zeros(0), "c_nodes": empty.copy()}

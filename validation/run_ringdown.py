@@ -25,14 +25,13 @@ import math
 import os
 import platform
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
 from scipy.optimize import curve_fit
 
 from gearrom.config import load_config
-from gearrom.fe.explicit.driver import solve
+from gearrom.fe.explicit.driver import fingerprint, solve
 from gearrom.fe.explicit.gearmesh import gear_quad_mesh
 from gearrom.fe.explicit.driver import prepare
 from gearrom.fe.explicit.gearpair import (GearPairSetup, gear_pair_model, loaded_model, relaxed_state,
@@ -185,18 +184,33 @@ def ringdown(pair, meshes, alpha: float, duration: float, relaxed=None, torque0:
         relaxed = stored_start_state(checkpoint, ".loaded.npz", "value", model.nodes.shape, torque0,
                                      lambda: loaded_state(pair, model, info, torque0))
     run = loaded_model(model, info, setup, relaxed)
-    t0 = time.perf_counter()
+    # a finished run keeps its record and fit beside the checkpoint (<name>.done.npz, a few kB): a calibration
+    # continued on another machine needs neither the run's checkpoint nor its steps again
+    done = checkpoint.with_name(checkpoint.name.replace(".ckpt.npz", ".done.npz"))
+    key = fingerprint(run, duration=duration, skip=skip, parallel=parallel)
+    if done.is_file():
+        with np.load(done) as z:
+            if str(z["key"]) == key:
+                fit = json.loads(str(z["fit"]))
+                log.info("alpha_r %.4g 1/s: zeta %.4f at %.1f Hz (finished run, %s)", alpha, fit["zeta"],
+                         fit["frequency_Hz"], done.name)
+                return fit, relaxed, z["t_s"].copy(), z["te_m"].copy()
+            log.warning("%s belongs to another model or run settings: ignored", done.name)
     res = solve(run, duration, 2e-6, parallel=parallel, chunks=40,
                 prepared=prepare(run, 0.9, mesh.get("max_candidates")), checkpoint=checkpoint,
                 checkpoint_every=120.0)
     te = transmission_error(res, info["rb"], info["clearance_angle"])
     w = res.t >= skip
     fit = fit_ringdown(res.t[w], te[w])
-    fit.update(alpha_r_per_s=alpha, wall_s=time.perf_counter() - t0, dt_s=res.meta["dt_s"],
+    fit.update(alpha_r_per_s=alpha, wall_s=res.meta["wall_time_s"], dt_s=res.meta["dt_s"],
                energy_error=res.energy_error, n_elements=res.meta["n_elements"],
                added_mass_kg=res.meta.get("added_mass_kg", 0.0))
     log.info("alpha_r %.4g 1/s: zeta %.4f at %.1f Hz (fit rms %.3f um)", alpha, fit["zeta"], fit["frequency_Hz"],
              fit["fit_rms_um"])
+    from gearrom.fe.cache import atomic_path
+
+    with atomic_path(done) as tmp:
+        np.savez(tmp, key=np.array(key), fit=np.array(json.dumps(fit)), t_s=res.t, te_m=te)
     return fit, relaxed, res.t, te
 
 
