@@ -131,25 +131,19 @@ def measure_helical(nsteps: int = 400, integration: str = "reduced") -> dict:
     return out
 
 
-def _colour_schedule(d: dict, conn: np.ndarray, n: int, block: int = 256) -> dict:
+def _colour_schedule(d: dict, conn: np.ndarray, n: int) -> dict:
     """``d`` with the element order of one parallel pass per greedy colour over the whole mesh."""
-    from gearrom.fe.explicit.geometry import color_elements
+    from gearrom.fe.explicit.geometry import colour_blocks
 
-    color = color_elements(conn, n)
-    order = np.argsort(color, kind="stable")
-    bptr, cptr, start = [0], [0], 0
-    for c in range(color.max() + 1):
-        size = int(np.count_nonzero(color == c))
-        bptr += [start + k for k in list(range(block, size, block)) + [size]]
-        start += size
-        cptr.append(len(bptr) - 1)
+    order, ends, per = colour_blocks(conn, np.arange(conn.shape[0]), n)
     out = dict(d)
     inv = np.empty_like(d["element_order"])
     inv[d["element_order"]] = np.arange(d["element_order"].size)     # prepared position of each model element
     pos = inv[order]
     for k in ("conn", "B", "V0", "gamma", "khg", "chg", "full", "Bg", "Wg"):
         out[k] = np.ascontiguousarray(d[k][pos])
-    out["bptr"], out["cptr"] = np.asarray(bptr, np.int64), np.asarray(cptr, np.int64)
+    out["bptr"] = np.asarray([0] + ends, np.int64)
+    out["cptr"] = np.concatenate([[0], np.cumsum(per)]).astype(np.int64)
     return out
 
 

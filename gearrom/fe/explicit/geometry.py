@@ -242,16 +242,34 @@ def schedule_elements(elements: np.ndarray, n_nodes: int, n_parts: int, block: i
     order = [inner]
     cptr = [0, n_parts]
     rest = np.flatnonzero(part_lo != part_hi)
-    if rest.size:
-        color = color_elements(elements[rest], n_nodes)
-        start = bounds[-1]
-        for c in range(color.max() + 1):
-            ids = rest[color == c]
-            ids = ids[np.argsort(lo[ids], kind="stable")]
-            order.append(ids)
-            cuts = list(range(block, ids.size, block)) + [ids.size]
-            bounds += [start + k for k in cuts]
-            start += ids.size
-            cptr.append(cptr[-1] + len(cuts))
+    ids, ends, per = colour_blocks(elements, rest, n_nodes, block, key=lo[rest])
+    order.append(ids)
+    bounds += [bounds[-1] + k for k in ends]
+    cptr += list(cptr[-1] + np.cumsum(per))
     return (np.concatenate(order).astype(np.int64), np.asarray(bounds, np.int64), np.asarray(cptr, np.int64))
+
+
+def colour_blocks(elements: np.ndarray, ids: np.ndarray, n_nodes: int, block: int = 256, key=None):
+    """The elements ``ids`` in passes of one greedy colour each (:func:`color_elements`), each pass cut into
+    blocks of ``block`` elements.
+
+    ``key`` (one value per element of ``ids``): the order within a colour (stable; None: the order of ``ids``).
+    Returns ``(order, ends, per_pass)``: ``ids`` permuted colour by colour, the end of each block counted from the
+    first of them, and the number of blocks of each pass.
+    """
+    order, ends, per = [], [], []
+    if ids.size == 0:
+        return ids, ends, per
+    color = color_elements(elements[ids], n_nodes)
+    start = 0
+    for c in range(color.max() + 1):
+        sel = np.flatnonzero(color == c)
+        if key is not None:
+            sel = sel[np.argsort(key[sel], kind="stable")]
+        order.append(ids[sel])
+        cuts = list(range(block, sel.size, block)) + [sel.size]
+        ends += [start + k for k in cuts]
+        start += sel.size
+        per.append(len(cuts))
+    return np.concatenate(order), ends, per
 
