@@ -51,13 +51,18 @@ def _dominant_frequency(t, x, f_min=4000.0):
 
 
 @pytest.fixture(scope="module")
-def runs(spur):
+def meshes(spur):
+    """The two gears' 0.3 mm outline / 2 mm body quad meshes with chord outlines (facets), shared by the runs."""
+    return [gear_quad_mesh(spur.pair, i, 0.3e-3, 2e-3, project=False) for i in (0, 1)]
+
+
+@pytest.fixture(scope="module")
+def runs(spur, meshes):
     from gearrom.fe.explicit.gearpair import GearPairSetup, run_gear_pair
     from gearrom.fe.mesh2d import MeshSettings
     from gearrom.fe.sweep import stiffness_sweep
 
     pair = spur.pair
-    meshes = [gear_quad_mesh(pair, i, 0.3e-3, 2e-3, project=False) for i in (0, 1)]   # chord outline: facets
     f_mesh = RPM / 60 * pair.z[0]
     sample = 1 / (f_mesh * 128)
     setup = GearPairSetup(rpm_in=RPM, torque_out=TORQUE, torque_ramp_time=RAMP, mass_scaling_dt=MASS_SCALING_DT)
@@ -74,12 +79,11 @@ def runs(spur):
 
 
 @pytest.fixture(scope="module")
-def full_run(spur):
+def full_run(spur, meshes):
     """The same coarse explicit FE with fully integrated Q4 (no hourglass modes)."""
     from gearrom.fe.explicit.gearpair import GearPairSetup, run_gear_pair
 
     pair = spur.pair
-    meshes = [gear_quad_mesh(pair, i, 0.3e-3, 2e-3, project=False) for i in (0, 1)]   # chord outline: facets
     sample = 1 / (RPM / 60 * pair.z[0] * 128)
     setup = GearPairSetup(rpm_in=RPM, torque_out=TORQUE, torque_ramp_time=RAMP, integration="full",
                           mass_scaling_dt=MASS_SCALING_DT)
@@ -103,10 +107,10 @@ def test_full_integration_has_no_hourglass_energy_and_is_stiffer(runs, full_run)
     assert abs(res_f.energy_error) < 0.05
 
 
-def test_mean_te_fe_softer_than_ltca_rom(runs):
+def test_mean_te_fe_softer_than_ltca_rom(runs, meshes):
     pair, res, te, rom, _ = runs
     # the mass scaling's added mass against the output gear's mass (quad areas x face width x density)
-    nodes, quads, _ = gear_quad_mesh(pair, 1, 0.3e-3, 2e-3, project=False)
+    nodes, quads, _ = meshes[1]
     x, y = nodes[quads, 0], nodes[quads, 1]
     area = 0.5 * np.abs(np.sum(x * np.roll(y, -1, axis=1) - y * np.roll(x, -1, axis=1), axis=1)).sum()
     assert res.meta["added_mass_kg"] < 1e-4 * area * pair.face_width * pair.gears[1].material.density
