@@ -33,7 +33,14 @@ from gearrom.fe.explicit.gearmesh import gear_quad_mesh
 from gearrom.validation import PairRomSetup, polar_inertia, simulate_pair_rom
 from gearrom.validation.report import facet_kinematic_te
 
+# the module's fixtures (two explicit runs) are computed once: all its tests on one xdist worker
+pytestmark = pytest.mark.xdist_group("validation_coarse_fe")
+
 RPM, TORQUE, RAMP, T_END = 2000.0, 120.0, 0.15e-3, 1.2e-3
+#: end of the fully integrated run: its window after the ramp (2 RAMP ... T_END_FULL) holds two periods of
+#: the ~6.8 kHz torsional mesh mode, so the mode's oscillation averages out of the mean TE and torque, and
+#: both models are compared on that same window
+T_END_FULL = 0.6e-3
 #: selective mass scaling target step, s: the small fillet and tip elements get mass so that the step is
 #: limited by the contact penalty instead; the added mass (res.meta["added_mass_kg"]) is asserted to stay
 #: below 1e-4 of the output gear's mass, too little to move the mesh mode
@@ -80,14 +87,14 @@ def runs(spur, meshes):
 
 @pytest.fixture(scope="module")
 def full_run(spur, meshes):
-    """The same coarse explicit FE with fully integrated Q4 (no hourglass modes)."""
+    """The same coarse explicit FE with fully integrated Q4 (no hourglass modes), to T_END_FULL."""
     from gearrom.fe.explicit.gearpair import GearPairSetup, run_gear_pair
 
     pair = spur.pair
     sample = 1 / (RPM / 60 * pair.z[0] * 128)
     setup = GearPairSetup(rpm_in=RPM, torque_out=TORQUE, torque_ramp_time=RAMP, integration="full",
                           mass_scaling_dt=MASS_SCALING_DT)
-    res, te, _ = run_gear_pair(pair, meshes, setup, t_end=T_END, sample_period=sample)
+    res, te, _ = run_gear_pair(pair, meshes, setup, t_end=T_END_FULL, sample_period=sample)
     return res, te
 
 
@@ -100,10 +107,11 @@ def test_full_integration_has_no_hourglass_energy_and_is_stiffer(runs, full_run)
     pair, res_r, te_r, rom, _ = runs
     res_f, te_f = full_run
     after = res_f.t > 2 * RAMP
+    after_r = (res_r.t > 2 * RAMP) & (res_r.t <= res_f.t[-1])    # the same window of the one-point run
     assert np.all(res_f.energy("hourglass") == 0.0)
     assert res_f.hourglass_ratio == 0.0 < res_r.hourglass_ratio
     assert np.mean(res_f.torque_body[after, 1]) == pytest.approx(-TORQUE, rel=0.05)
-    assert te_f[after].mean() < te_r[after].mean()
+    assert te_f[after].mean() < te_r[after_r].mean()
     assert abs(res_f.energy_error) < 0.05
 
 
