@@ -30,9 +30,13 @@ from gearrom.fe.halfspace import rect_surface
 from gearrom.fe.ltca_helical import Helical3DLTCA, contact_pattern
 from gearrom.fe.iso6336 import mesh_stiffness
 from gearrom.fe.mesh3d import Mesh3DSettings
-from gearrom.fe.sweep import mesh_cycle
+from gearrom.fe.sweep import default_cache_dir, mesh_cycle
 
 MESH3D = Mesh3DSettings()  # the default (7-tooth elastic sector, ~90k / 120k dofs): chosen by the refinement study
+
+# the module's fixtures (the LTCA's cycle, both gears factorised for the direct solve) are computed once:
+# all its tests on one xdist worker
+pytestmark = pytest.mark.xdist_group("fe_helical3d")
 
 
 def _micro(pair, **kw):
@@ -41,12 +45,14 @@ def _micro(pair, **kw):
 
 
 @pytest.fixture(scope="module")
-def helical3d(tmp_path_factory):
+def helical3d():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         pair = load_config("thesis-helical").pair
-    cache = tmp_path_factory.mktemp("h3d")
-    comps = tuple(cached_compliance3d(pair, i, MESH3D, cache_dir=cache) for i in range(2))
+    # the package's FE cache: the README's main job (thesis-rig, the same pair and default 3D mesh) stores these
+    # compliances there, and a run without it computes and stores them. An entry is keyed by the gearrom version,
+    # the model code revision, the geometry and the mesh, and its arrays are checked against their SHA-256 on read.
+    comps = tuple(cached_compliance3d(pair, i, MESH3D, cache_dir=default_cache_dir()) for i in range(2))
     ltca = Helical3DLTCA(pair, comps, n_slices=24)
     return pair, ltca, mesh_cycle(ltca, [120.0], 32, tangent=False)
 
