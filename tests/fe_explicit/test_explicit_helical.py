@@ -32,10 +32,25 @@ def coarse_meshes(helical):
     return helical_meshes(helical, 0.5e-3, 3e-3, 1e-3)
 
 
-def test_layers_follow_the_helix(helical, coarse_meshes):
+@pytest.fixture(scope="module")
+def pair_model(helical, coarse_meshes):
+    """``pair_model(n_layers, **kw)``: ``helical_pair_model`` of the coarse meshes with the default set-up, built
+    once per argument set and shared by the tests (which read the model and its info, never change them)."""
+    built = {}
+
+    def build(n_layers, **kw):
+        key = (n_layers, tuple(sorted(kw.items())))
+        if key not in built:
+            built[key] = helical_pair_model(helical, coarse_meshes, GearPairSetup(), n_layers, **kw)
+        return built[key]
+
+    return build
+
+
+def test_layers_follow_the_helix(helical, pair_model):
     """Every layer of the input gear is the mid-face section turned by z tan(beta) / r1 (right hand: ccw)."""
     n_layers = 4
-    model, info = helical_pair_model(helical, coarse_meshes, GearPairSetup(), n_layers)
+    model, info = pair_model(n_layers)
     x = np.asarray(model.nodes)
     off = info["n_gear1_2d"]                            # input nodes: layer by layer, first in the model
     mid = x[2 * off:3 * off]                            # layer 2 of 4 is z = 0
@@ -51,13 +66,12 @@ def test_layers_follow_the_helix(helical, coarse_meshes):
     assert info["layer_m"] == pytest.approx(min(g.face_width for g in helical.gears) / n_layers)
 
 
-def test_sector_keeps_the_full_gear_inertia(helical, coarse_meshes):
+def test_sector_keeps_the_full_gear_inertia(helical, pair_model):
     """Sector model: lumped polar inertia of the kept elements + the reference's added inertia = full gear's."""
     from gearrom.fe.explicit.driver import prepare
 
-    setup = GearPairSetup()
-    full, _ = helical_pair_model(helical, coarse_meshes, setup, 2)
-    sec, info = helical_pair_model(helical, coarse_meshes, setup, 2, run_angle=0.5)
+    full, _ = pair_model(2)
+    sec, info = pair_model(2, run_angle=0.5)
     assert sec.elements.shape[0] < 0.7 * full.elements.shape[0]
     centers = (np.zeros(2), np.array([helical.aw, 0.0]))
 
@@ -99,7 +113,7 @@ def test_rejects_spur_pair_and_bad_layers(helical, coarse_meshes):
         helical_pair_model(helical, coarse_meshes, GearPairSetup(), 0)
 
 
-def test_no_initial_overclosure_across_the_face(helical, coarse_meshes):
+def test_no_initial_overclosure_across_the_face(pair_model):
     """The start position keeps the clearance everywhere: the 3D contact kernel finds no penetrating node at t = 0.
 
     (Seed pair: negative tip-root clearance and a tip-fillet interference below the root form circles;
@@ -108,7 +122,7 @@ def test_no_initial_overclosure_across_the_face(helical, coarse_meshes):
     from gearrom.fe.explicit.contact import contact_forces_3d, contact_search
     from gearrom.fe.explicit.driver import prepare
 
-    model, info = helical_pair_model(helical, coarse_meshes, GearPairSetup(), 4, run_angle=0.05)
+    model, info = pair_model(4, run_angle=0.05)
     d = prepare(model, 0.9, 32)
     x = np.array(model.nodes)
     contact_search(x, d["slaves"], d["s_pair"], d["segs"], d["g_pair"], d["g_rad"], d["margin"] + d["p_depth"].max(),
@@ -139,7 +153,7 @@ def test_coarse_run_energy_balance(helical, coarse_meshes):
     assert np.max(res.energies[:, 4]) > 0          # the flanks did carry load through the contact
 
 
-def test_start_gap_is_the_clearance_as_the_contact_sees_it(helical, coarse_meshes):
+def test_start_gap_is_the_clearance_as_the_contact_sees_it(helical, pair_model):
     """The output is turned until the 3D contact's own smallest gap, on the transverse line of action
     (normal gap / cos(beta_b), the helix geometry), equals the set-up clearance. The rigid touch of the
     transverse sections alone is not that gap (points outside the contact sets, such as the mate's tip
@@ -148,18 +162,18 @@ def test_start_gap_is_the_clearance_as_the_contact_sees_it(helical, coarse_meshe
     from gearrom.fe.explicit.helicalpair import contact_min_gap
 
     setup = GearPairSetup()
-    model, info = helical_pair_model(helical, coarse_meshes, setup, 4, run_angle=0.05)
+    model, info = pair_model(4, run_angle=0.05)
     g = contact_min_gap(model) / math.cos(helical.beta_b)
     assert g == pytest.approx(setup.clearance, abs=0.01e-6)
     # the section touch alone is not the contact's gap (here off by more than a um)
     assert abs(info["start_gap_loa_m"][0] - setup.clearance) > 1e-6
 
 
-def test_staggered_layers(helical, coarse_meshes):
+def test_staggered_layers(pair_model):
     """stagger=True: output planes at the input's mid-layers (plus the two end faces); valid Hex8 elements."""
     from gearrom.fe.explicit.geometry import element_geometry
 
-    model, info = helical_pair_model(helical, coarse_meshes, GearPairSetup(), 2, stagger=True)
+    model, info = pair_model(2, stagger=True)
     b = info["width_m"]
     assert np.allclose(info["z_layers"][0], [-b / 2, 0.0, b / 2])
     assert np.allclose(info["z_layers"][1], [-b / 2, -b / 4, b / 4, b / 2])
@@ -167,11 +181,11 @@ def test_staggered_layers(helical, coarse_meshes):
     assert np.all(vol > 0)
 
 
-def test_every_slave_meets_the_mate_on_its_facets(helical, coarse_meshes):
+def test_every_slave_meets_the_mate_on_its_facets(helical, pair_model):
     """Involute geometry: a flank point at radius r of gear g meets the mate, on the transverse line of action,
     at the radius with roll length aw sin(alpha_wt) - sqrt(r^2 - rb_g^2). Every slave node's mate point must
     lie within the radii the mate's master facets cover (else it would load a facet-set edge)."""
-    model, _ = helical_pair_model(helical, coarse_meshes, GearPairSetup(), 2)
+    model, _ = pair_model(2)
     x = np.asarray(model.nodes)
     centres = (np.zeros(2), np.array([helical.aw, 0.0]))
     loa = helical.aw * math.sin(helical.alpha_wt)
