@@ -62,8 +62,16 @@ def _iso_te(pair, torque):
 def test_quasi_static_te_vs_iso_stiffness():
     pair = load_config("thesis-spur").pair
     meshes = [gear_quad_mesh(pair, i, 0.3e-3, 2e-3) for i in (0, 1)]
-    setup = GearPairSetup(rpm_in=1.0, torque_out=120.0, torque_ramp_time=0.15e-3, mass_damping=4e4)
+    # selective mass scaling of the smallest elements to a 15 ns step (as the coarse validation run): the TE
+    # asserted is the settled static one (1 rpm), which no mass enters; the mass added stays a small
+    # fraction of the pinion's (quad areas x face width x density)
+    setup = GearPairSetup(rpm_in=1.0, torque_out=120.0, torque_ramp_time=0.15e-3, mass_damping=4e4,
+                          mass_scaling_dt=1.5e-8)
     res, te, info = run_gear_pair(pair, meshes, setup, t_end=0.28e-3, sample_period=5e-6)
+    nodes, quads, _ = meshes[0]
+    x, y = nodes[quads, 0], nodes[quads, 1]
+    area = 0.5 * np.abs(np.sum(x * np.roll(y, -1, axis=1) - y * np.roll(x, -1, axis=1), axis=1)).sum()
+    assert res.meta["added_mass_kg"] < 1e-3 * area * pair.face_width * pair.gears[0].material.density
     ratio = np.mean(te[res.t >= 0.24e-3]) / _iso_te(pair, 120.0)
     assert 0.9 < ratio < 1.5, ratio
 
