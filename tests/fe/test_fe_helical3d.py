@@ -34,10 +34,6 @@ from gearrom.fe.sweep import default_cache_dir, mesh_cycle
 
 MESH3D = Mesh3DSettings()  # the default (7-tooth elastic sector, ~90k / 120k dofs): chosen by the refinement study
 
-# the module's fixtures (the LTCA's cycle, both gears factorised for the direct solve) are computed once:
-# all its tests on one xdist worker
-pytestmark = pytest.mark.xdist_group("fe_helical3d")
-
 
 def _micro(pair, **kw):
     gears = [dataclasses.replace(g, micro=dataclasses.replace(g.micro, enabled=True, **kw)) for g in pair.gears]

@@ -33,9 +33,6 @@ from gearrom.fe.explicit.gearmesh import gear_quad_mesh
 from gearrom.validation import PairRomSetup, polar_inertia, simulate_pair_rom
 from gearrom.validation.report import facet_kinematic_te
 
-# the module's fixtures (two explicit runs) are computed once: all its tests on one xdist worker
-pytestmark = pytest.mark.xdist_group("validation_coarse_fe")
-
 RPM, TORQUE, RAMP, T_END = 2000.0, 120.0, 0.15e-3, 1.2e-3
 #: end of the fully integrated run: its window after the ramp (2 RAMP ... T_END_FULL) holds two periods of
 #: the ~6.8 kHz torsional mesh mode, so the mode's oscillation averages out of the mean TE and torque, and
