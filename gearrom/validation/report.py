@@ -100,11 +100,20 @@ class SpeedComparison:
                 "rom": {k: v for k, v in self.rom_meta.items() if k != "excitation_definition"}}
 
 
+#: results of :func:`facet_kinematic_te` computed in this process, by a digest of everything they depend on
+_FACET_TE: dict[str, np.ndarray] = {}
+
+
 def facet_kinematic_te(pair, excitation, torque: float, outline: float, body: float, theta_end: float,
                        per_period: int = 32, project: bool = False) -> tuple[float, np.ndarray]:
     """Kinematic TE of the FE's faceted outlines over input angles 0..theta_end: (step [rad], values [m]).
 
-    ``project``: the FE mesh has its outline nodes on the profile (:func:`gear_quad_mesh`)."""
+    ``project``: the FE mesh has its outline nodes on the profile (:func:`gear_quad_mesh`). The result is
+    kept for the process, keyed by the pair, the mesh sizes, the angles and the table rows it uses (load
+    shares, stiffness, pair labels), so that comparisons of one record with several ROMs or records of one
+    length compute it once; a copy is returned."""
+    import hashlib
+
     from gearrom.fe.explicit.gearmesh import gear_quad_mesh
     from gearrom.validation.facets import faceted_rigid_te, share_rows
     from gearrom.validation.pair_rom import fe_start_mesh_phase
@@ -115,11 +124,20 @@ def facet_kinematic_te(pair, excitation, torque: float, outline: float, body: fl
     phase0 = fe_start_mesh_phase(pair)
     j = int(np.argmin(np.abs(np.asarray(excitation.torque) - torque)))
     share_tab = np.asarray(excitation.load_share)[j]                       # (n_theta, n_pairs)
-    meshes = [gear_quad_mesh(pair, i, outline, body, project=project) for i in (0, 1)]
     k = np.asarray(excitation.stiffness(np.mod(phase0 + th, period), torque), float)
     share = share_rows(share_tab, phase0 + th, period)
-    return step, faceted_rigid_te(pair, meshes, th, share, phase0, force=torque / pair.rb[1], stiffness=k,
-                                  pairs=getattr(excitation, "pairs", None))
+    pairs = getattr(excitation, "pairs", None)
+    digest = hashlib.sha256(repr((pair, float(torque), float(outline), float(body), bool(project), phase0)).encode())
+    for a in (th, share, k, np.asarray([] if pairs is None else pairs, float)):
+        digest.update(np.ascontiguousarray(a, float).tobytes())
+    key = digest.hexdigest()
+    if key not in _FACET_TE:
+        meshes = [gear_quad_mesh(pair, i, outline, body, project=project) for i in (0, 1)]
+        if len(_FACET_TE) >= 8:
+            _FACET_TE.clear()
+        _FACET_TE[key] = faceted_rigid_te(pair, meshes, th, share, phase0, force=torque / pair.rb[1], stiffness=k,
+                                          pairs=pairs)
+    return step, _FACET_TE[key].copy()
 
 
 def validate_speed(pair, rpm: float, fe: FERecord, excitation, excitation_label: str, inertia_out: float,
