@@ -24,6 +24,13 @@ with the element schedule of the loop (:func:`gearrom.fe.explicit.geometry.sched
 same run, with one pass per greedy colour over the whole mesh (the element order without node-range parts),
 and the share of the elements, the contact and the damping in the step (the same steps without contact and
 without relative damping). Writes ``hex8_helical_reference`` into the results file.
+
+``--kernel-variants``: on the same reference model and element schedule, the fully integrated Hex8 element
+pass alone (no step around it) with the package kernel (:func:`gearrom.fe.explicit.kernels.hex8_full_element`:
+displacements read once, forces summed over the Gauss points locally, written once) and with the baseline form
+kept here (:func:`_hex8_full_per_gauss`: displacements read and forces written at every Gauss point), serial
+and on both cores, in one run, with the largest force difference between the two. Writes
+``hex8_full_kernel_variants``.
 """
 from __future__ import annotations
 
@@ -36,6 +43,7 @@ import numpy as np
 
 from _common import peak_memory_MB, write_result
 from gearrom.fe.explicit import ExplicitModel, Material, prepare, solve
+from gearrom.fe.explicit.kernels import svk_3d
 from gearrom.fe.explicit.meshes import box_hex8, rectangle_q4
 
 
@@ -147,9 +155,8 @@ def _colour_schedule(d: dict, conn: np.ndarray, n: int) -> dict:
     return out
 
 
-def measure_reference(nsteps: int = 60) -> dict:
-    """Wall time per step of the helical validation reference model (module docstring, ``--reference-only``)."""
-    import dataclasses
+def _reference_model():
+    """The helical validation reference model from its committed loaded state, and its prepared arrays."""
     import warnings
     from pathlib import Path
 
@@ -174,7 +181,14 @@ def measure_reference(nsteps: int = 60) -> dict:
 
     state = stored_start_state(state_file, ".loaded.npz", "te", model.nodes.shape, 120.0, missing)
     model = loaded_model(model, info, setup, (state[0], state[1], 0.0))
-    d = prepare(model, 0.9, mesh["max_candidates"])
+    return model, prepare(model, 0.9, mesh["max_candidates"])
+
+
+def measure_reference(nsteps: int = 60) -> dict:
+    """Wall time per step of the helical validation reference model (module docstring, ``--reference-only``)."""
+    import dataclasses
+
+    model, d = _reference_model()
     ne = model.elements.shape[0]
     dt = d["dt"]
     empty = np.zeros(0, np.int64)
@@ -202,6 +216,88 @@ def measure_reference(nsteps: int = 60) -> dict:
     return out
 
 
+@numba.njit(cache=True, fastmath=True, inline="always")
+def _hex8_full_per_gauss(e, conn, u, Bg, Wg, lam, mu, f):
+    """Baseline fully integrated Hex8 element: the displacements are read and the forces written at every
+    Gauss point (same arithmetic as the package kernel, other memory traffic)."""
+    wint = 0.0
+    for g in range(8):
+        w = Wg[e, g]
+        F00 = 1.0; F01 = 0.0; F02 = 0.0
+        F10 = 0.0; F11 = 1.0; F12 = 0.0
+        F20 = 0.0; F21 = 0.0; F22 = 1.0
+        for a in range(8):
+            n = conn[e, a]
+            ux = u[n, 0]; uy = u[n, 1]; uz = u[n, 2]
+            bx = Bg[e, g, a, 0]; by = Bg[e, g, a, 1]; bz = Bg[e, g, a, 2]
+            F00 += ux * bx; F01 += ux * by; F02 += ux * bz
+            F10 += uy * bx; F11 += uy * by; F12 += uy * bz
+            F20 += uz * bx; F21 += uz * by; F22 += uz * bz
+        P00, P01, P02, P10, P11, P12, P20, P21, P22, psi = svk_3d(F00, F01, F02, F10, F11, F12, F20, F21, F22,
+                                                                  lam, mu)
+        P00 *= w; P01 *= w; P02 *= w
+        P10 *= w; P11 *= w; P12 *= w
+        P20 *= w; P21 *= w; P22 *= w
+        wint += w * psi
+        for a in range(8):
+            n = conn[e, a]
+            bx = Bg[e, g, a, 0]; by = Bg[e, g, a, 1]; bz = Bg[e, g, a, 2]
+            f[n, 0] -= P00 * bx + P01 * by + P02 * bz
+            f[n, 1] -= P10 * bx + P11 * by + P12 * bz
+            f[n, 2] -= P20 * bx + P21 * by + P22 * bz
+    return wint
+
+
+def _element_pass(kernel):
+    """The loop's element pass (passes in sequence, the blocks of a pass in parallel) with ``kernel``."""
+    @numba.njit(parallel=True, fastmath=True)
+    def run(conn, u, Bg, Wg, lam, mu, f, cptr, bptr):
+        wint = 0.0
+        for c in range(cptr.shape[0] - 1):
+            for b in numba.prange(cptr[c], cptr[c + 1]):
+                for e in range(bptr[b], bptr[b + 1]):
+                    wint += kernel(e, conn, u, Bg, Wg, lam, mu, f)
+        return wint
+    return run
+
+
+def measure_kernel_variants(repeats: int = 5) -> dict:
+    """The element pass of the reference model with the package kernel and the baseline (``--kernel-variants``)."""
+    from gearrom.fe.explicit.kernels import hex8_full_element
+
+    model, d = _reference_model()
+    conn, Bg, Wg, cptr, bptr = d["conn"], d["Bg"], d["Wg"], d["cptr"], d["bptr"]
+    u = np.random.default_rng(0).normal(0.0, 1e-6, model.nodes.shape)     # every element strained
+    lam, mu = float(d["lam"]), float(d["mu"])
+    ne = conn.shape[0]
+    out = {"n_elements": ne, "repeats": repeats}
+    forces = {}
+    for threads in (1, 2):
+        numba.set_num_threads(threads)
+        for name, kernel in (("package", hex8_full_element), ("per_gauss_baseline", _hex8_full_per_gauss)):
+            run = _element_pass(kernel)
+            f = np.zeros_like(u)
+            run(conn, u, Bg, Wg, lam, mu, f, cptr, bptr)     # compile
+            forces[name] = f
+            walls = []
+            for _ in range(repeats):
+                f[:] = 0.0
+                t0 = time.perf_counter()
+                run(conn, u, Bg, Wg, lam, mu, f, cptr, bptr)
+                walls.append(time.perf_counter() - t0)
+            wall = min(walls)
+            out[f"{name}_{threads}_threads"] = {"ms_per_pass": wall * 1e3, "element_updates_per_s": ne / wall,
+                                                "wall_s_repeats": walls}
+            print(f"{name}, {threads} thread(s): {wall * 1e3:.1f} ms per pass, {ne / wall:.3g} element updates per s",
+                  flush=True)
+        out[f"speedup_{threads}_threads"] = (out[f"per_gauss_baseline_{threads}_threads"]["ms_per_pass"]
+                                             / out[f"package_{threads}_threads"]["ms_per_pass"])
+    scale = np.abs(forces["per_gauss_baseline"]).max()
+    out["max_force_difference_rel"] = float(np.abs(forces["package"] - forces["per_gauss_baseline"]).max() / scale)
+    out["model"] = "helical validation reference (run_ringdown.REFERENCE_MESH_HELICAL), element pass only"
+    return out
+
+
 def main() -> None:
     import json
     import sys
@@ -214,6 +310,14 @@ def main() -> None:
         figures["full_integration_load_average_1_5_15"] = list(os.getloadavg())
         figures["full_integration_note"] = ("2x2 / 2x2x2 Gauss elements without hourglass control vs the one-point "
                                             "elements, measured back to back in one run (machine section: its date)")
+        write_result("bench_explicit_kernel", figures)
+        return
+    if "--kernel-variants" in sys.argv:
+        from _common import RESULTS
+
+        figures = json.loads((RESULTS / "bench_explicit_kernel.json").read_text())["figures"]
+        figures["hex8_full_kernel_variants"] = measure_kernel_variants()
+        figures["hex8_full_kernel_variants_load_average_1_5_15"] = list(os.getloadavg())
         write_result("bench_explicit_kernel", figures)
         return
     if "--reference-only" in sys.argv:

@@ -211,30 +211,90 @@ def q4_full_element(e, conn, u, Bg, Wg, lam, mu, f):
 @njit(cache=True, fastmath=True, inline="always")
 def hex8_full_element(e, conn, u, Bg, Wg, lam, mu, f):
     """Residual contribution of a fully integrated (2x2x2 Gauss) Hex8 element ``e``; returns W_int in J
-    (as :func:`q4_full_element`)."""
+    (as :func:`q4_full_element`).
+
+    The element's displacements are read once and its forces summed over the Gauss points in local
+    variables, then added to ``f`` once: the compiler cannot tell ``u`` and ``f`` apart, so a force
+    written inside the Gauss loop would force every displacement to be read again."""
+    n0 = conn[e, 0]; n1 = conn[e, 1]; n2 = conn[e, 2]; n3 = conn[e, 3]
+    n4 = conn[e, 4]; n5 = conn[e, 5]; n6 = conn[e, 6]; n7 = conn[e, 7]
+    ux0 = u[n0, 0]; uy0 = u[n0, 1]; uz0 = u[n0, 2]
+    ux1 = u[n1, 0]; uy1 = u[n1, 1]; uz1 = u[n1, 2]
+    ux2 = u[n2, 0]; uy2 = u[n2, 1]; uz2 = u[n2, 2]
+    ux3 = u[n3, 0]; uy3 = u[n3, 1]; uz3 = u[n3, 2]
+    ux4 = u[n4, 0]; uy4 = u[n4, 1]; uz4 = u[n4, 2]
+    ux5 = u[n5, 0]; uy5 = u[n5, 1]; uz5 = u[n5, 2]
+    ux6 = u[n6, 0]; uy6 = u[n6, 1]; uz6 = u[n6, 2]
+    ux7 = u[n7, 0]; uy7 = u[n7, 1]; uz7 = u[n7, 2]
+    fx0 = 0.0; fy0 = 0.0; fz0 = 0.0; fx1 = 0.0; fy1 = 0.0; fz1 = 0.0
+    fx2 = 0.0; fy2 = 0.0; fz2 = 0.0; fx3 = 0.0; fy3 = 0.0; fz3 = 0.0
+    fx4 = 0.0; fy4 = 0.0; fz4 = 0.0; fx5 = 0.0; fy5 = 0.0; fz5 = 0.0
+    fx6 = 0.0; fy6 = 0.0; fz6 = 0.0; fx7 = 0.0; fy7 = 0.0; fz7 = 0.0
     wint = 0.0
     for g in range(8):
-        w = Wg[e, g]
-        F00 = 1.0; F01 = 0.0; F02 = 0.0
-        F10 = 0.0; F11 = 1.0; F12 = 0.0
-        F20 = 0.0; F21 = 0.0; F22 = 1.0
-        for a in range(8):
-            n = conn[e, a]
-            ux = u[n, 0]; uy = u[n, 1]; uz = u[n, 2]
-            bx = Bg[e, g, a, 0]; by = Bg[e, g, a, 1]; bz = Bg[e, g, a, 2]
-            F00 += ux * bx; F01 += ux * by; F02 += ux * bz
-            F10 += uy * bx; F11 += uy * by; F12 += uy * bz
-            F20 += uz * bx; F21 += uz * by; F22 += uz * bz
+        bx0 = Bg[e, g, 0, 0]; by0 = Bg[e, g, 0, 1]; bz0 = Bg[e, g, 0, 2]
+        bx1 = Bg[e, g, 1, 0]; by1 = Bg[e, g, 1, 1]; bz1 = Bg[e, g, 1, 2]
+        bx2 = Bg[e, g, 2, 0]; by2 = Bg[e, g, 2, 1]; bz2 = Bg[e, g, 2, 2]
+        bx3 = Bg[e, g, 3, 0]; by3 = Bg[e, g, 3, 1]; bz3 = Bg[e, g, 3, 2]
+        bx4 = Bg[e, g, 4, 0]; by4 = Bg[e, g, 4, 1]; bz4 = Bg[e, g, 4, 2]
+        bx5 = Bg[e, g, 5, 0]; by5 = Bg[e, g, 5, 1]; bz5 = Bg[e, g, 5, 2]
+        bx6 = Bg[e, g, 6, 0]; by6 = Bg[e, g, 6, 1]; bz6 = Bg[e, g, 6, 2]
+        bx7 = Bg[e, g, 7, 0]; by7 = Bg[e, g, 7, 1]; bz7 = Bg[e, g, 7, 2]
+        F00 = (1.0 + ux0 * bx0 + ux1 * bx1 + ux2 * bx2 + ux3 * bx3
+               + ux4 * bx4 + ux5 * bx5 + ux6 * bx6 + ux7 * bx7)
+        F01 = (ux0 * by0 + ux1 * by1 + ux2 * by2 + ux3 * by3
+               + ux4 * by4 + ux5 * by5 + ux6 * by6 + ux7 * by7)
+        F02 = (ux0 * bz0 + ux1 * bz1 + ux2 * bz2 + ux3 * bz3
+               + ux4 * bz4 + ux5 * bz5 + ux6 * bz6 + ux7 * bz7)
+        F10 = (uy0 * bx0 + uy1 * bx1 + uy2 * bx2 + uy3 * bx3
+               + uy4 * bx4 + uy5 * bx5 + uy6 * bx6 + uy7 * bx7)
+        F11 = (1.0 + uy0 * by0 + uy1 * by1 + uy2 * by2 + uy3 * by3
+               + uy4 * by4 + uy5 * by5 + uy6 * by6 + uy7 * by7)
+        F12 = (uy0 * bz0 + uy1 * bz1 + uy2 * bz2 + uy3 * bz3
+               + uy4 * bz4 + uy5 * bz5 + uy6 * bz6 + uy7 * bz7)
+        F20 = (uz0 * bx0 + uz1 * bx1 + uz2 * bx2 + uz3 * bx3
+               + uz4 * bx4 + uz5 * bx5 + uz6 * bx6 + uz7 * bx7)
+        F21 = (uz0 * by0 + uz1 * by1 + uz2 * by2 + uz3 * by3
+               + uz4 * by4 + uz5 * by5 + uz6 * by6 + uz7 * by7)
+        F22 = (1.0 + uz0 * bz0 + uz1 * bz1 + uz2 * bz2 + uz3 * bz3
+               + uz4 * bz4 + uz5 * bz5 + uz6 * bz6 + uz7 * bz7)
         P00, P01, P02, P10, P11, P12, P20, P21, P22, psi = svk_3d(F00, F01, F02, F10, F11, F12, F20, F21, F22,
                                                                   lam, mu)
+        w = Wg[e, g]
+        wint += w * psi
         P00 *= w; P01 *= w; P02 *= w
         P10 *= w; P11 *= w; P12 *= w
         P20 *= w; P21 *= w; P22 *= w
-        wint += w * psi
-        for a in range(8):
-            n = conn[e, a]
-            bx = Bg[e, g, a, 0]; by = Bg[e, g, a, 1]; bz = Bg[e, g, a, 2]
-            f[n, 0] -= P00 * bx + P01 * by + P02 * bz
-            f[n, 1] -= P10 * bx + P11 * by + P12 * bz
-            f[n, 2] -= P20 * bx + P21 * by + P22 * bz
+        fx0 += P00 * bx0 + P01 * by0 + P02 * bz0
+        fy0 += P10 * bx0 + P11 * by0 + P12 * bz0
+        fz0 += P20 * bx0 + P21 * by0 + P22 * bz0
+        fx1 += P00 * bx1 + P01 * by1 + P02 * bz1
+        fy1 += P10 * bx1 + P11 * by1 + P12 * bz1
+        fz1 += P20 * bx1 + P21 * by1 + P22 * bz1
+        fx2 += P00 * bx2 + P01 * by2 + P02 * bz2
+        fy2 += P10 * bx2 + P11 * by2 + P12 * bz2
+        fz2 += P20 * bx2 + P21 * by2 + P22 * bz2
+        fx3 += P00 * bx3 + P01 * by3 + P02 * bz3
+        fy3 += P10 * bx3 + P11 * by3 + P12 * bz3
+        fz3 += P20 * bx3 + P21 * by3 + P22 * bz3
+        fx4 += P00 * bx4 + P01 * by4 + P02 * bz4
+        fy4 += P10 * bx4 + P11 * by4 + P12 * bz4
+        fz4 += P20 * bx4 + P21 * by4 + P22 * bz4
+        fx5 += P00 * bx5 + P01 * by5 + P02 * bz5
+        fy5 += P10 * bx5 + P11 * by5 + P12 * bz5
+        fz5 += P20 * bx5 + P21 * by5 + P22 * bz5
+        fx6 += P00 * bx6 + P01 * by6 + P02 * bz6
+        fy6 += P10 * bx6 + P11 * by6 + P12 * bz6
+        fz6 += P20 * bx6 + P21 * by6 + P22 * bz6
+        fx7 += P00 * bx7 + P01 * by7 + P02 * bz7
+        fy7 += P10 * bx7 + P11 * by7 + P12 * bz7
+        fz7 += P20 * bx7 + P21 * by7 + P22 * bz7
+    f[n0, 0] -= fx0; f[n0, 1] -= fy0; f[n0, 2] -= fz0
+    f[n1, 0] -= fx1; f[n1, 1] -= fy1; f[n1, 2] -= fz1
+    f[n2, 0] -= fx2; f[n2, 1] -= fy2; f[n2, 2] -= fz2
+    f[n3, 0] -= fx3; f[n3, 1] -= fy3; f[n3, 2] -= fz3
+    f[n4, 0] -= fx4; f[n4, 1] -= fy4; f[n4, 2] -= fz4
+    f[n5, 0] -= fx5; f[n5, 1] -= fy5; f[n5, 2] -= fz5
+    f[n6, 0] -= fx6; f[n6, 1] -= fy6; f[n6, 2] -= fz6
+    f[n7, 0] -= fx7; f[n7, 1] -= fy7; f[n7, 2] -= fz7
     return wint
