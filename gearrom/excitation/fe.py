@@ -29,6 +29,8 @@ log = logging.getLogger(__name__)
 TORQUE_MAP = (0.25, 0.5, 0.75, 1.0, 1.5, 2.0)
 #: revision of the way the table is computed (part of the cache key)
 TABLE_REVISION = "fe-table-v1"
+#: revision of the helical slice model's gaps (part of the key of the tables of ``helical_model="slices"``)
+SLICES_REVISION = "slices-transverse-gaps"
 
 
 def torque_map(torque_out: float, factors: Sequence[float] = TORQUE_MAP) -> list[float]:
@@ -66,7 +68,8 @@ def flank_pair(pair):
 def table_key(pair, torques: Sequence[float], n_positions: int, settings=None, helical_model: str = "3d",
               n_slices: int | None = None) -> str:
     """Content key of a table: pair, torques, positions, mesh settings, model, strips of a helical
-    model (when not the default), gearrom version."""
+    model (when not the default), the slice model's revision (:data:`SLICES_REVISION`, slice tables
+    only), gearrom version."""
     from gearrom.fe.cache import cache_key
     from gearrom.fe.mesh3d import Mesh3DSettings
 
@@ -76,6 +79,8 @@ def table_key(pair, torques: Sequence[float], n_positions: int, settings=None, h
                "n_positions": int(n_positions), "mesh": mesh, "helical_model": model}
     if pair.is_helical and n_slices is not None and int(n_slices) != DEFAULT_SLICES:
         content["n_slices"] = int(n_slices)
+    if model == "slices":
+        content["slices_revision"] = SLICES_REVISION
     return cache_key(TABLE_REVISION, content)
 
 

@@ -1,6 +1,10 @@
 """Initial gaps from micro-geometry and manufacturing errors, along the transverse line of action.
 
-Every function returns the material *removed* from the loaded flank [m] (positive opens the gap).
+Every function returns the material *removed* from the loaded flank [m] (positive opens the gap),
+measured in the transverse plane along the base tangent (the transverse line of action), as
+ISO 1328-1 measures profile and helix deviations. The micro-geometry values of a config
+(``tip_relief_um``, ``lead_crowning_um``, ``helix_slope_um``, ...) are taken in that convention;
+measured along the flank normal of a helical gear, the same removal is ``cos(beta_b)`` times the value.
 
 Conventions
 -----------
@@ -13,7 +17,9 @@ Conventions
   flank of that tooth.
 * Runout ``F_r = 2 e``: the gear centre is displaced by ``e`` towards the largest radius at
   ``runout_phase`` from tooth 0; its projection on the line of action closes the gap.
-* Lead crowning and helix slope vary over the face width: only the 3D model sees them.
+* Lead crowning and helix slope vary over the face width: the helical LTCAs
+  (:mod:`gearrom.fe.ltca_helical`, :mod:`gearrom.fe.ltca_slices`) add them at each axial position;
+  the plane model of a spur pair ignores them (:func:`needs_3d`).
 """
 from __future__ import annotations
 
@@ -28,7 +34,8 @@ def roll_at(pair, i: int, diameter: float) -> float:
 
 
 def profile_removal(pair, i: int, L: np.ndarray, micro=None) -> np.ndarray:
-    """Material removed by the profile modifications of gear ``i`` at roll lengths ``L`` [m]."""
+    """Material removed by the profile modifications of gear ``i`` at roll lengths ``L`` [m], along the
+    transverse line of action [m]."""
     m = pair.gears[i].micro if micro is None else micro
     L = np.asarray(L, float)
     out = np.zeros_like(L)
@@ -51,8 +58,9 @@ def profile_removal(pair, i: int, L: np.ndarray, micro=None) -> np.ndarray:
 
 def lead_removal(pair, i: int, z) -> np.ndarray:
     """Material removed by the lead modifications of gear ``i`` at axial positions ``z`` [m] from the middle
-    of the face width: parabolic lead crowning ``C_b`` (zero in the middle, ``C_b`` at both ends of the
-    face width ``b``) and helix slope ``f_Hbeta`` (linear, zero in the middle, ``f_Hbeta / 2`` at +b/2)."""
+    of the face width, along the transverse line of action [m]: parabolic lead crowning ``C_b`` (zero in
+    the middle, ``C_b`` at both ends of the face width ``b``) and helix slope ``f_Hbeta`` (linear, zero in
+    the middle, ``f_Hbeta / 2`` at +b/2)."""
     z = np.asarray(z, float)
     m = pair.gears[i].micro
     if not m.enabled:

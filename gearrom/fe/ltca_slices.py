@@ -8,9 +8,15 @@ the slices are *uncoupled* (no load spreading along the face width), which over-
 effects and the sensitivity to lead modifications. The rigid approach along the transverse line of
 action is common to all slices; the transverse force torque / r_b2 is shared among them.
 
-Micro-geometry: profile modifications act per slice (normal removal / cos(beta_b) along the
-transverse line of action), lead crowning C_b (parabolic, C_b at both faces) and helix slope
-f_Hbeta (linear across the face, positive: material removed towards z = +b/2) per slice.
+Gaps: every quantity of the contact problem is taken along the transverse line of action (the
+convention of :class:`~gearrom.fe.ltca.SpurLTCA`, whose candidates each slice uses): the
+separation of the two transverse involutes, the profile modifications, pitch deviations and runout
+of the slice's section (:meth:`SpurLTCA.candidates`), plus the lead modifications of
+:func:`gearrom.fe.flankgaps.lead_removal` at the slice's ``z``: lead crowning C_b (parabolic, C_b
+at both ends of the face width) and helix slope f_Hbeta (linear, +f_Hbeta/2 removed at
+z = +b/2). All micro-geometry values are transverse, as ISO 1328-1 measures profile and helix
+deviations (along the transverse base tangent), the convention of
+:class:`~gearrom.fe.ltca_helical.Helical3DLTCA`.
 """
 from __future__ import annotations
 
@@ -64,7 +70,9 @@ class HelicalSliceLTCA(SpurLTCA):
             self.c = plane
 
     def _lead_removal(self, z: float) -> float:
-        return float(lead_removal(self.pair, 0, z) + lead_removal(self.pair, 1, z)) / self.cosb
+        """Material removed by the lead modifications of both gears at axial position ``z`` [m], along the
+        transverse line of action [m]."""
+        return float(lead_removal(self.pair, 0, z) + lead_removal(self.pair, 1, z))
 
     def solve_many(self, theta: float, torques, mesh_index: int = 0, only=None) -> list[PositionResult]:
         """Contact solutions at one input angle for several output torques [N m]."""
@@ -81,8 +89,8 @@ class HelicalSliceLTCA(SpurLTCA):
             off = m_idx - mesh_index
             C = self.cached_compliance(th, m_idx, self.window, only, cands)  # slice compliances (scaled in __init__)
             lead = self._lead_removal(z)
-            h = np.concatenate([c[4] for c in cands]) / self.cosb + lead
-            kin = min(kin, min(c[7] for c in cands) / self.cosb + lead)
+            h = np.concatenate([c[4] for c in cands]) + lead  # transverse gaps of the section plus the lead removal
+            kin = min(kin, min(c[7] for c in cands) + lead)
             blocks.append(C)
             gaps.append(h)
             pids.append(np.concatenate([np.full(c[1].size, c[0] - off) for c in cands]))

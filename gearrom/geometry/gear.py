@@ -94,12 +94,17 @@ class RackTool:
 class MicroGeometry:
     """Flank modifications and manufacturing errors of one gear (SI, lengths in m).
 
+    Profile and lead modifications and deviations are material removed from the flank, measured in the
+    transverse plane along the base tangent (the transverse line of action), as ISO 1328-1 measures
+    profile and helix deviations; along the flank normal of a helical gear they are ``cos(beta_b)``
+    times these values.
+
     Parameters
     ----------
     enabled : bool
         When False the gear is treated as perfect (the values stay available).
     tip_relief : float
-        Linear tip relief C_a [m] at the tip, along the flank normal.
+        Linear tip relief C_a [m] at the tip.
     tip_relief_start_diameter : float or None
         Diameter d_Ca where the relief starts [m].
     profile_crowning : float
