@@ -35,7 +35,7 @@ from gearrom.excitation.slices import MicroMods, SliceMicroModel
 from gearrom.excitation.table import MeshExcitation
 
 log = logging.getLogger(__name__)
-CODE_VERSION = 4  # part of the result cache key: the revision of the LTCA gaps behind the stored tables
+CODE_VERSION = 5  # part of the result cache key: the revision of the LTCA (gaps, forces, pressure) behind the stored tables
 SPUR_SLICES = 8  # face slices of a spur pair (uniform unless a lead modification is set)
 _MEMORY: dict = {}
 _LTCA: dict = {}

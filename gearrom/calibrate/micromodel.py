@@ -3,7 +3,9 @@
 Anything with an ``excitation(pair, torques_Nm, mods) -> MeshExcitation`` method serves
 (:class:`MicroGeometryModel`): the quasi-static FE tables (:class:`~gearrom.calibrate.microfe.FEMicroModel`)
 or the analytical thin slices (:class:`~gearrom.excitation.slices.SliceMicroModel`). The modification
-type :class:`~gearrom.excitation.slices.MicroMods` comes with the slice model.
+type :class:`~gearrom.excitation.slices.MicroMods` comes with the slice model; its amounts are material
+removed from the flank along the transverse line of action (ISO 1328-1), the convention of the config's
+micro-geometry, and every model takes them so.
 """
 from __future__ import annotations
 

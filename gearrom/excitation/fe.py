@@ -29,8 +29,9 @@ log = logging.getLogger(__name__)
 TORQUE_MAP = (0.25, 0.5, 0.75, 1.0, 1.5, 2.0)
 #: revision of the way the table is computed (part of the cache key)
 TABLE_REVISION = "fe-table-v1"
-#: revision of the helical slice model's gaps (part of the key of the tables of ``helical_model="slices"``)
-SLICES_REVISION = "slices-transverse-gaps"
+#: revision of the helical slice model (transverse gaps; normal contact forces and the pressure on the
+#: flank patch), part of the key of the tables of ``helical_model="slices"``
+SLICES_REVISION = "slices-transverse-gaps-normal-forces"
 
 
 def torque_map(torque_out: float, factors: Sequence[float] = TORQUE_MAP) -> list[float]:
@@ -88,6 +89,25 @@ def table_key(pair, torques: Sequence[float], n_positions: int, settings=None, h
 DEFAULT_SLICES = 24
 
 
+def excitation_key(pair, torques: Sequence[float], n_positions: int = 64, settings=None, helical_model: str = "3d",
+                   n_slices: int | None = None) -> str:
+    """Cache key of the table :func:`fe_excitation` gives for these arguments (no table computed).
+
+    Parameters
+    ----------
+    pair, torques, n_positions, settings, helical_model, n_slices
+        As for :func:`fe_excitation` (the pair's runout and pitch deviations are dropped, :func:`flank_pair`;
+        the torques [N m] are sorted and made unique).
+
+    Returns
+    -------
+    str
+        The :func:`table_key` of the table.
+    """
+    tq = sorted({float(t) for t in torques})
+    return table_key(flank_pair(pair), tq, n_positions, settings, helical_model, n_slices)
+
+
 #: tables already read or computed in this process, by key: (file stamp, table)
 _LOADED: dict[tuple, tuple] = {}
 
@@ -137,7 +157,7 @@ def fe_excitation(pair, torques: Sequence[float], n_positions: int = 64, setting
         from gearrom.errors import ModelError
 
         raise ModelError(f"fe_excitation: torques must be positive N m, got {list(torques)}")
-    key = table_key(pair, tq, n_positions, settings, helical_model, n_slices)
+    key = excitation_key(pair, tq, n_positions, settings, helical_model, n_slices)
     folder = (default_cache_dir() if cache_dir is True else Path(cache_dir) if cache_dir else None)
 
     def compute() -> MeshExcitation:

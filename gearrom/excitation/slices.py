@@ -13,8 +13,11 @@ Model (:class:`SliceMicroModel`)
   (the convention and the theta origin of :mod:`gearrom.excitation.analytical`).
 * Slice stiffness: ``c' f(s) dy``, with the ISO 6336-1 single stiffness ``c'`` and the parabolic
   pair shape ``f`` of the analytical excitation (so perfect gears reproduce it).
-* Initial gap of a slice (flank normal, converted to the transverse line of action by
-  ``1/cos(beta_b)``), summed over the modifications:
+* Initial gap of a slice: the material removed from both flanks, summed over the modifications, in
+  the transverse plane along the base tangent (the transverse line of action), as ISO 1328-1
+  measures profile and helix deviations and as the FE models take them
+  (:mod:`gearrom.fe.flankgaps`); every value of :class:`MicroMods` is in that convention (along the
+  flank normal of a helical pair the removal is ``cos(beta_b)`` times the value):
 
   - tip relief of gear i, linear from the roll length at ``d_Ca`` to the tip, ``C_a`` at the tip;
   - lead crowning, ``C_b (2 y/b - 1)^2`` (both flanks together, parabolic over the face);
@@ -41,23 +44,34 @@ from gearrom.excitation.table import MeshExcitation
 from gearrom.geometry.pair import GearPair
 
 UM = 1e-6
+#: revision of the results of this module's slice model (part of the reuse keys of results computed with it,
+#: e.g. :func:`gearrom.study.scatter.study_key`)
+MODEL_REVISION = "slices-micro-transverse-1"
 
 
 @dataclass(frozen=True)
 class MicroMods:
     """Flank modifications of the pair as the diagnosis parametrizes them (SI, m).
 
+    Every amount is material removed from the flank, measured in the transverse plane along the base
+    tangent (the transverse line of action), as ISO 1328-1 measures profile and helix deviations: the
+    convention of the config's micro-geometry (:class:`gearrom.geometry.gear.MicroGeometry`) and of
+    the FE models (:mod:`gearrom.fe.flankgaps`). Along the flank normal of a helical pair the removal
+    is ``cos(beta_b)`` times the value.
+
     Parameters
     ----------
     tip_relief : (float, float)
-        Linear tip relief C_a of the input and output gear, m (flank normal).
+        Linear tip relief C_a of the input and output gear at the tip, m (transverse).
     tip_relief_start_diameter : (float or None, float or None)
         Diameters d_Ca where the reliefs start, m (None: 2/3 of the way from the start of active
         profile to the tip, a common design rule).
     lead_crowning : float
-        Lead crowning C_b of the pair, m.
+        Lead crowning C_b of the pair (the sum over both gears), m (transverse): removal ``C_b`` at
+        both ends of the face width, zero in the middle, parabolic.
     helix_slope : float
-        Helix slope / misalignment over the face width, m (signed).
+        Helix slope f_Hbeta of the pair (misalignment) over the face width, m (transverse, signed):
+        linear removal, zero in the middle, ``f_Hbeta / 2`` at the face end that enters contact last.
     """
 
     tip_relief: tuple[float, float] = (0.0, 0.0)
@@ -132,7 +146,9 @@ class SliceMicroModel:
         meta = {"source": "gearrom.calibrate.micromodel.SliceMicroModel (thin slices, ISO 6336-1 level)",
                 "theta_origin": "pair 0 enters contact (start of the path of contact, face end y=0) at theta = 0",
                 "tip_relief_um": [x / UM for x in mods.tip_relief], "lead_crowning_um": mods.lead_crowning / UM,
-                "helix_slope_um": mods.helix_slope / UM, "n_slices": self.n_slices}
+                "helix_slope_um": mods.helix_slope / UM, "n_slices": self.n_slices,
+                "micro_geometry": "removals along the transverse line of action (ISO 1328-1)",
+                "revision": MODEL_REVISION}
         return MeshExcitation(z1=z1, theta=theta, torque=tq, k=k_tab, e=e_tab, load_share=share,
                               definition="tangent; transverse line of action; thin-slice ISO 6336-1 level; no shaft/bearing",
                               metadata=meta)
@@ -149,7 +165,8 @@ class SliceMicroModel:
             Stiffness of each slice of each pair, N/m (0 outside the path of contact). Pair ``p`` entered
             ``p`` mesh periods before pair 0.
         gap : ndarray, same shape
-            Initial separation on the transverse line of action, m.
+            Initial separation on the transverse line of action, m: the removals of ``mods``, taken as
+            transverse values (see :class:`MicroMods`).
         """
         g = pair.g_alpha
         b = pair.face_width
@@ -164,7 +181,7 @@ class SliceMicroModel:
         u = np.clip(s / g, 0, 1)
         k_sl = np.where(inside, iso_single_stiffness(pair) * (f_min + (1 - f_min) * 4 * u * (1 - u)) * (b / self.n_slices),
                         0.0)
-        return theta, k_sl, _gaps(pair, s, y, mods) / math.cos(pair.beta_b)
+        return theta, k_sl, _gaps(pair, s, y, mods)
 
 
 def equilibrium(k: np.ndarray, gap: np.ndarray, force: float) -> float:
@@ -181,7 +198,9 @@ def equilibrium(k: np.ndarray, gap: np.ndarray, force: float) -> float:
 
 
 def _gaps(pair: GearPair, s: np.ndarray, y: np.ndarray, mods: MicroMods) -> np.ndarray:
-    """Initial separation along the flank normal at roll position ``s`` and face position ``y``, m."""
+    """Initial separation at roll position ``s`` and face position ``y`` from the face end that enters
+    contact first, m: the material removed by ``mods`` along the transverse line of action (the
+    convention of :class:`MicroMods`)."""
     gap = np.zeros_like(s)
     rb1, rb2 = pair.rb
     rho_start1 = pair.roll_start_active[0]

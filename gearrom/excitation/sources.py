@@ -24,7 +24,8 @@ from gearrom.errors import ConfigError
 from gearrom.excitation.analytical import analytical_excitation
 from gearrom.excitation.table import MeshExcitation
 
-__all__ = ["SOURCES", "ExcitationSource", "describe_excitation", "load_excitation_source", "register_source"]
+__all__ = ["SOURCES", "ExcitationSource", "describe_excitation", "fe_table_key", "load_excitation_source",
+           "register_source"]
 
 
 @dataclass(frozen=True)
@@ -46,14 +47,33 @@ def register_source(source: ExcitationSource) -> ExcitationSource:
     return source
 
 
-def _fe(cfg, rom: dict, torque: float, progress: bool = False) -> MeshExcitation:
-    from gearrom.excitation.fe import fe_excitation, torque_map
+def _fe_inputs(cfg, rom: dict, torque: float) -> tuple[list[float], int, Any]:
+    """Torques [N m], positions per mesh period and 2D mesh settings of the ``"fe"`` table of ``cfg`` at ``torque``."""
+    from gearrom.excitation.fe import torque_map
     from gearrom.fe.mesh2d import settings_from_section
 
     settings, extra = settings_from_section(cfg.section("fe"), str(cfg.source or cfg.name))
     torques = ([float(t) for t in rom["excitation_torques_Nm"]] or torque_map(torque)) + [float(torque)]
-    return fe_excitation(cfg.pair, torques, int(extra.get("positions", 64)), settings, progress=progress,
+    return torques, int(extra.get("positions", 64)), settings
+
+
+def _fe(cfg, rom: dict, torque: float, progress: bool = False) -> MeshExcitation:
+    from gearrom.excitation.fe import fe_excitation
+
+    torques, n_positions, settings = _fe_inputs(cfg, rom, torque)
+    return fe_excitation(cfg.pair, torques, n_positions, settings, progress=progress,
                          config_name=cfg.name, config_digest=cfg.digest())
+
+
+def fe_table_key(cfg, rom: dict, torque: float) -> str:
+    """Cache key of the table the ``"fe"`` source gives for ``cfg`` (validated ``[rom]`` section ``rom``)
+    at the output ``torque`` [N m], without computing it (:func:`gearrom.excitation.fe.excitation_key`);
+    it covers the table's model revisions (:data:`gearrom.excitation.fe.TABLE_REVISION`) and the gearrom
+    version."""
+    from gearrom.excitation.fe import excitation_key
+
+    torques, n_positions, settings = _fe_inputs(cfg, rom, torque)
+    return excitation_key(cfg.pair, torques, n_positions, settings)
 
 
 def _fe_describe(ex: MeshExcitation) -> dict:

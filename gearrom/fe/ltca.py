@@ -108,11 +108,13 @@ class PositionResult:
     force : float
         Transverse line-of-action force torque / r_b2 [N].
     pair, roll1, force_c, pressure : ndarray
-        Per contact candidate: pair index, input-gear roll length [m], normal force [N], pressure [Pa].
+        Per contact candidate: pair index, input-gear roll length [m], contact force along the flank
+        normal [N] (for a helical pair its transverse component is ``cos(beta_b)`` times it, the rest
+        is axial), contact pressure [Pa] (normal force over the candidate's patch in the flank).
     pairs : ndarray of int; pair_force : ndarray
         Pair indices and the force each carries [N], as its share of the transverse line-of-action
-        force (torque on the output gear / r_b2; equal to the normal force for involute contact,
-        which acts along the line of action), so ``pair_force.sum() == force``.
+        force (torque on the output gear / r_b2), so ``pair_force.sum() == force``; for the involute
+        contact of a spur pair this is the normal force, for a helical pair ``cos(beta_b)`` times it.
     """
 
     theta: float

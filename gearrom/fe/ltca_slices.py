@@ -17,6 +17,17 @@ at both ends of the face width) and helix slope f_Hbeta (linear, +f_Hbeta/2 remo
 z = +b/2). All micro-geometry values are transverse, as ISO 1328-1 measures profile and helix
 deviations (along the transverse base tangent), the convention of
 :class:`~gearrom.fe.ltca_helical.Helical3DLTCA`.
+
+Forces and pressure: the contact problem of the slices is solved for the transverse line-of-action
+force ``F_t = torque / r_b2`` (per candidate its line-of-action share ``f_t``, as in
+:class:`SpurLTCA`). The results report what :class:`~gearrom.fe.ltca.PositionResult` defines, as the
+3D model does: the normal contact force ``f_n = f_t / (lambda cos(beta_b))`` (``lambda`` = 1 on the
+involutes, the lever factor of a tip-edge candidate, see :meth:`SpurLTCA.candidates`), whose
+transverse component is ``f_t / lambda`` (the rest is axial), and the pressure on the candidate's
+patch in the flank: ``spacing`` wide along the transverse profile, which crosses the contact line at
+right angles in the flank's tangent plane, and ``dz / cos(beta_b)`` long along the contact line, so
+``p = f_n cos(beta_b) / (spacing dz) = f_t / (lambda spacing dz)``. ``pair_force`` stays the share of
+``F_t`` (sums to ``force``).
 """
 from __future__ import annotations
 
@@ -76,7 +87,7 @@ class HelicalSliceLTCA(SpurLTCA):
 
     def solve_many(self, theta: float, torques, mesh_index: int = 0, only=None) -> list[PositionResult]:
         """Contact solutions at one input angle for several output torques [N m]."""
-        blocks, gaps, pids, rolls, zs = [], [], [], [], []
+        blocks, gaps, pids, rolls, lams, zs = [], [], [], [], [], []
         kin = np.inf
         for k, z in enumerate(self.z):
             th = theta + self.shift[k]
@@ -95,18 +106,20 @@ class HelicalSliceLTCA(SpurLTCA):
             gaps.append(h)
             pids.append(np.concatenate([np.full(c[1].size, c[0] - off) for c in cands]))
             rolls.append(np.concatenate([c[5] for c in cands]))
+            lams.append(np.concatenate([c[9] for c in cands]))
             zs.append(np.full(h.size, z))
         if not blocks:
             raise SolverError(f"contact not found at theta = {math.degrees(theta):.4f} deg in any slice")
-        h, pid, roll, zc = (np.concatenate(x) for x in (gaps, pids, rolls, zs))
+        h, pid, roll, lam, zc = (np.concatenate(x) for x in (gaps, pids, rolls, lams, zs))
+        area_t = self.c[0].spacing * self.dz  # patch area in the flank times cos(beta_b) (module doc)
         out = []
         for tq in torques:
             F = tq / self.pair.rb[1]
             sol = solve_contact_blocks(blocks, gaps, F, tol=self.tol, where=f" at theta = {math.degrees(theta):.4f} deg")
-            width = self.c[0].spacing * self.dz
+            f_t = sol.f / lam  # transverse component of each candidate's contact force
             pf = np.array([sol.f[pid == p].sum() for p in self.pair_range])
             res = PositionResult(theta=theta, torque=tq, ste=sol.delta, ste_kinematic=float(kin), force=F, pair=pid,
-                                 roll1=roll, force_c=sol.f, pressure=sol.f / width / self.cosb,
+                                 roll1=roll, force_c=f_t / self.cosb, pressure=f_t / area_t,
                                  pairs=self.pair_range.copy(), pair_force=pf)
             object.__setattr__(res, "z", zc)  # axial position of each candidate (contact pattern)
             out.append(res)

@@ -6,9 +6,10 @@ compliances (:class:`gearrom.calibrate.microfe.FEMicroModel`, no FE solve; or th
 model), adds the pitch deviations and runout as ROM kinematic effects, simulates every speed and
 writes ``OUT/samples/sample_NNNNNN_<hash>.nc`` through a temporary file and a rename. The hash covers
 the run's reuse key (config content, referenced files, torque, revolutions, samples per mesh,
-versions), the speeds, the micro-geometry model and the sample's deviations, so a rerun into the same
-``OUT`` reuses exactly the samples that would come out the same, and a task that runs twice (its
-worker was lost after the write) rewrites the same file.
+versions), the speeds, the micro-geometry model, the revisions of the models a sample runs on
+(:func:`model_revisions`) and the sample's deviations, so a rerun into the same ``OUT`` reuses exactly
+the samples that would come out the same, and a task that runs twice (its worker was lost after the
+write) rewrites the same file.
 """
 from __future__ import annotations
 
@@ -170,14 +171,77 @@ def run_sample(task: SampleTask) -> dict:
             "gmf_um": ds["gmf_um"].values, "features": feats, "cpu_s": cpu, "reused": False}
 
 
+def model_revisions(cfg, settings: StudySettings) -> dict:
+    """Revisions of the models whose results a sample of ``cfg`` is built from.
+
+    Parameters
+    ----------
+    cfg : GearConfig
+        Loaded config.
+    settings : StudySettings
+
+    Returns
+    -------
+    dict
+        JSON-serialisable: ``slices``, the thin-slice model's revision
+        (:data:`gearrom.excitation.slices.MODEL_REVISION`: the ROM follows the pitch deviations with it,
+        and ``micro_model="slices"`` or the FE model's fallback changes the table with it); with
+        ``micro_model="fe"``, ``micro_fe`` (:data:`gearrom.calibrate.microfe.CODE_VERSION`), ``fe_slices``
+        (:data:`gearrom.excitation.fe.SLICES_REVISION`, the slice LTCA behind it) and ``compliance_2d``
+        (the FE compliances it solves with); with the ``"fe"`` nominal table (``[rom] excitation``),
+        ``nominal_table``, that table's cache key (:func:`gearrom.excitation.sources.fe_table_key`: its
+        revision, pair, torques, mesh and the gearrom version), and the revisions of the FE compliances
+        behind it (``compliance_2d``, ``compliance_3d``), which that key does not cover. A table file
+        named by ``[rom] excitation`` is covered by the reuse key's file hashes.
+    """
+    from gearrom.excitation.slices import MODEL_REVISION
+    from gearrom.rom.rig import rom_section
+
+    out: dict = {"slices": MODEL_REVISION}
+    compliance = False
+    if settings.micro_model == "fe":
+        from gearrom.calibrate.microfe import CODE_VERSION
+        from gearrom.excitation.fe import SLICES_REVISION
+
+        out.update(micro_fe=CODE_VERSION, fe_slices=SLICES_REVISION)
+        compliance = True
+    rom = rom_section(cfg)
+    if rom["excitation"] == "fe":
+        from gearrom.excitation.sources import fe_table_key
+
+        out["nominal_table"] = fe_table_key(cfg, rom, settings.torque_out_Nm)
+        compliance = True
+    if compliance:
+        from gearrom.fe import compliance as c2d, compliance3d as c3d
+
+        out.update(compliance_2d=c2d.CODE_VERSION, compliance_3d=c3d.CODE_VERSION)
+    return out
+
+
 def study_key(config_ref: str, settings: StudySettings) -> dict:
-    """The reuse key shared by all samples of a study (see :func:`gearrom.rom.sweep.reuse_key`)."""
+    """The reuse key shared by all samples of a study.
+
+    Parameters
+    ----------
+    config_ref : str
+        Bundled config name or TOML path.
+    settings : StudySettings
+
+    Returns
+    -------
+    dict
+        JSON-serialisable: the run's reuse key (:func:`gearrom.rom.sweep.reuse_key`: config content,
+        referenced files, torque, revolutions, samples per mesh, versions), the speeds, the
+        micro-geometry model and the revisions of the models a sample runs on (``models``,
+        :func:`model_revisions`). A stored sample is reused only under an equal key.
+    """
     from gearrom.config import as_config
     from gearrom.rom.sweep import reuse_key
 
     cfg = as_config(config_ref, check=True)
     key = reuse_key(cfg, settings.torque_out_Nm, settings.n_output_revs, settings.samples_per_mesh, False)
-    key.update(rpm=[repr(float(r)) for r in settings.rpm], micro_model=settings.micro_model, format=1)
+    key.update(rpm=[repr(float(r)) for r in settings.rpm], micro_model=settings.micro_model,
+               models=model_revisions(cfg, settings), format=1)
     return key
 
 

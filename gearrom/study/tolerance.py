@@ -19,7 +19,9 @@ tolerance zone, not over a particular machine's process capability):
 
 Pitch deviations and runout go into the ROM as kinematic effects (:class:`gearrom.rom.mesh.Effects`,
 no table change); helix slope, tip relief and crowning change the mesh excitation table
-(:class:`gearrom.calibrate.micromodel.MicroMods`).
+(:class:`gearrom.excitation.slices.MicroMods`). They are material removed from the flank along the
+transverse line of action, as ISO 1328-1 measures profile and helix deviations and as every
+micro-geometry model of the package takes them.
 """
 from __future__ import annotations
 

@@ -44,7 +44,7 @@ def test_helix_slope_on_spur_matches_closed_form_partial_contact(pairs):
     f = 40e-6  # large enough for partial contact at low load
     model = SliceMicroModel(n_theta=32, n_slices=400)
     ex0 = model.excitation(pair, [30.0], MicroMods())
-    ex = model.excitation(pair, [30.0], MicroMods(helix_slope=f * math.cos(pair.beta_b)))  # spur: cos = 1
+    ex = model.excitation(pair, [30.0], MicroMods(helix_slope=f))  # the slope along the transverse line of action
     F = 30.0 / pair.rb[1]
     for k0, d in zip(ex0.k[0], ex.e[0]):
         c = k0 / pair.face_width

@@ -131,3 +131,74 @@ def test_unreachable_scheduler(tmp_path, spec):
             run_tolerance_study("thesis-rig", spec, 1, SETTINGS, tmp_path, scheduler="tcp://127.0.0.1:9", progress=False)
     finally:
         distributed.CONNECT_TIMEOUT_S = old
+
+
+def _store_sample(task):
+    """Stand-in for :func:`gearrom.study.scatter.run_sample` that stores a sample under the task's stamp
+    in the same format without simulating (the reuse decision reads only the stamp)."""
+    import json
+
+    import xarray as xr
+
+    from gearrom.rom.sweep import write_netcdf_atomic
+    from gearrom.study.tolerance import FEATURES
+
+    n = len(task.settings.rpm)
+    feats = task.deviations.features()
+    ds = xr.Dataset({"dte_ptp_um": ("rpm", np.ones(n)), "dte_rms_um": ("rpm", np.ones(n)),
+                     "gmf_um": (("rpm", "gmf_order"), np.ones((n, 3))), "features": ("feature", feats)},
+                    coords={"rpm": np.array(task.settings.rpm), "gmf_order": [1, 2, 3], "feature": list(FEATURES)},
+                    attrs={"format": "gearrom.ToleranceSample", "index": task.deviations.index, "stamp": task.stamp,
+                           "cpu_s": 0.0, "deviations_json": json.dumps(task.deviations.to_json())})
+    write_netcdf_atomic(ds, task.path)
+    return {"index": task.deviations.index, "dte_ptp_um": np.ones(n), "dte_rms_um": np.ones(n),
+            "gmf_um": np.ones((n, 3)), "features": feats, "cpu_s": 0.0, "reused": False}
+
+
+@pytest.mark.parametrize("module,name,micro,still_reused", [
+    ("gearrom.excitation.slices", "MODEL_REVISION", "none", False),  # the ROM's pitch curves use the slices
+    ("gearrom.excitation.slices", "MODEL_REVISION", "slices", False),
+    ("gearrom.calibrate.microfe", "CODE_VERSION", "fe", False),
+    ("gearrom.excitation.fe", "SLICES_REVISION", "fe", False),  # the slice LTCA behind the FE micro model
+    ("gearrom.fe.compliance", "CODE_VERSION", "fe", False),
+    ("gearrom.excitation.fe", "TABLE_REVISION", "none", False),  # the nominal FE table of thesis-rig
+    ("gearrom.calibrate.microfe", "CODE_VERSION", "none", True),  # a model the samples do not use
+])
+def test_samples_of_another_model_revision_are_not_reused(tmp_path, spec, monkeypatch, module, name, micro,
+                                                          still_reused):
+    """A rerun into the same folder reuses the stored samples only while the revisions of the models they
+    were computed with are unchanged.
+
+    Reference: the files on disk and the tasks submitted. A study of 3 samples is stored, rerun (all 3
+    reused, nothing submitted), then the revision constant of one model is changed (as a code change
+    of that model does) and the study rerun: every sample is computed again when the samples use that
+    model, and reused when they do not (the FE micro-geometry model's revision with ``micro_model="none"``).
+    The per-sample simulation is replaced by a stand-in that stores a sample under the task's stamp.
+    """
+    import importlib
+
+    from gearrom.study import distributed
+
+    settings = StudySettings((3000.0,), 120.0, 0.25, 32, micro)
+    submitted = []
+
+    def fake_run_tasks(fn, tasks, client, **kw):
+        submitted.append(len(tasks))
+        return [_store_sample(t) for t in tasks]
+
+    monkeypatch.setattr(distributed, "run_tasks", fake_run_tasks)
+
+    def run():
+        return run_tolerance_study("thesis-rig", spec, 3, settings, tmp_path, client=object(), progress=False)
+
+    assert run().metadata["reused"] == 0 and submitted == [3]
+    assert run().metadata["reused"] == 3 and submitted == [3]
+    mod = importlib.import_module(module)
+    old = getattr(mod, name)
+    monkeypatch.setattr(mod, name, f"{old}-changed" if isinstance(old, str) else old + 1)
+    res = run()
+    if still_reused:
+        assert res.metadata["reused"] == 3 and submitted == [3]
+    else:
+        assert res.metadata["reused"] == 0 and submitted == [3, 3]
+        assert len(list((tmp_path / "samples").glob("sample_*.nc"))) == 6  # the new key's files next to the old
