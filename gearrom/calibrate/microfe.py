@@ -35,7 +35,8 @@ from gearrom.excitation.slices import MicroMods, SliceMicroModel
 from gearrom.excitation.table import MeshExcitation
 
 log = logging.getLogger(__name__)
-CODE_VERSION = 5  # part of the result cache key: the revision of the LTCA (gaps, forces, pressure) behind the stored tables
+#: part of the result cache key: the revision of the LTCA (gaps, forces, pressure, helix hand) behind the stored tables
+CODE_VERSION = 6
 SPUR_SLICES = 8  # face slices of a spur pair (uniform unless a lead modification is set)
 _MEMORY: dict = {}
 _LTCA: dict = {}

@@ -30,8 +30,9 @@ TORQUE_MAP = (0.25, 0.5, 0.75, 1.0, 1.5, 2.0)
 #: revision of the way the table is computed (part of the cache key)
 TABLE_REVISION = "fe-table-v1"
 #: revision of the helical slice model (transverse gaps; normal contact forces and the pressure on the
-#: flank patch), part of the key of the tables of ``helical_model="slices"``
-SLICES_REVISION = "slices-transverse-gaps-normal-forces"
+#: flank patch; sections shifted by the helix hand, :func:`gearrom.geometry.profile.contact_shift`), part of
+#: the key of the tables of ``helical_model="slices"``
+SLICES_REVISION = "slices-transverse-gaps-normal-forces-hand"
 
 
 def torque_map(torque_out: float, factors: Sequence[float] = TORQUE_MAP) -> list[float]:

@@ -10,7 +10,11 @@ Model (:class:`SliceMicroModel`)
 * Each tooth pair in contact is cut into ``n_slices`` thin slices across the face width. A slice
   at face position ``y`` of the pair whose contact line sits at roll position ``s0`` (face end
   ``y = 0``) touches at ``s = s0 - y tan(beta_b)`` on the path of contact ``[0, g_alpha]``
-  (the convention and the theta origin of :mod:`gearrom.excitation.analytical`).
+  (the convention and the theta origin of :mod:`gearrom.excitation.analytical`). ``y`` runs from
+  the face end that enters contact first (:func:`gearrom.geometry.profile.entry_face_end`: z = -b/2
+  for a right-hand input gear, z = +b/2 for a left-hand one), so the slice lies at the pair's axial
+  position ``z = z_e (1 - 2 y / b)`` (``z_e`` that end) and ``s`` follows from the shift of
+  :func:`gearrom.geometry.profile.contact_shift` as in the FE models.
 * Slice stiffness: ``c' f(s) dy``, with the ISO 6336-1 single stiffness ``c'`` and the parabolic
   pair shape ``f`` of the analytical excitation (so perfect gears reproduce it).
 * Initial gap of a slice: the material removed from both flanks, summed over the modifications, in
@@ -20,8 +24,9 @@ Model (:class:`SliceMicroModel`)
   flank normal of a helical pair the removal is ``cos(beta_b)`` times the value):
 
   - tip relief of gear i, linear from the roll length at ``d_Ca`` to the tip, ``C_a`` at the tip;
-  - lead crowning, ``C_b (2 y/b - 1)^2`` (both flanks together, parabolic over the face);
-  - helix slope (misalignment), ``f_Hbeta (y/b - 1/2)`` (signed, linear over the face).
+  - lead crowning, ``C_b (2 z/b)^2`` (both flanks together, parabolic over the face);
+  - helix slope (misalignment), ``f_Hbeta z / b`` (signed, linear over the face: ``f_Hbeta / 2``
+    removed at z = +b/2 whatever the hand, the convention of :func:`gearrom.fe.flankgaps.lead_removal`).
 
 * Static equilibrium at each mesh angle: ``sum_i k_i max(delta - g_i, 0) = F_t`` with
   ``F_t = T_out / r_b2`` (the slices are independent springs: no load spreading between slices,
@@ -42,11 +47,12 @@ from gearrom.errors import CalibrationError
 from gearrom.excitation.analytical import shape_min, iso_single_stiffness
 from gearrom.excitation.table import MeshExcitation
 from gearrom.geometry.pair import GearPair
+from gearrom.geometry.profile import contact_shift, entry_face_end
 
 UM = 1e-6
 #: revision of the results of this module's slice model (part of the reuse keys of results computed with it,
 #: e.g. :func:`gearrom.study.scatter.study_key`)
-MODEL_REVISION = "slices-micro-transverse-1"
+MODEL_REVISION = "slices-micro-transverse-hand-2"
 
 
 @dataclass(frozen=True)
@@ -71,7 +77,10 @@ class MicroMods:
         both ends of the face width, zero in the middle, parabolic.
     helix_slope : float
         Helix slope f_Hbeta of the pair (misalignment) over the face width, m (transverse, signed):
-        linear removal, zero in the middle, ``f_Hbeta / 2`` at the face end that enters contact last.
+        linear removal ``f_Hbeta z / b``, zero in the middle, ``f_Hbeta / 2`` at the face end z = +b/2 of
+        the pair's axial coordinate (:func:`gearrom.fe.flankgaps.lead_removal`). That end enters contact
+        last for a right-hand input gear and first for a left-hand one
+        (:func:`gearrom.geometry.profile.entry_face_end`).
     """
 
     tip_relief: tuple[float, float] = (0.0, 0.0)
@@ -170,18 +179,21 @@ class SliceMicroModel:
         """
         g = pair.g_alpha
         b = pair.face_width
-        tb = math.tan(pair.beta_b)
         theta = np.arange(self.n_theta) * (2 * math.pi / pair.z[0]) / self.n_theta
         n_pairs = int(math.ceil(pair.eps_alpha + pair.eps_beta)) + 1
         y = (np.arange(self.n_slices) + 0.5) * b / self.n_slices
+        z_e = entry_face_end(pair)
+        z = z_e * (1 - 2 * y / b)  # axial position of each slice (the pair's z, face width centred on 0)
+        # roll lag of each slice behind the entering end: -y tan(beta_b)
+        lag = pair.rb[0] * (np.asarray(contact_shift(pair, z), float) - float(contact_shift(pair, z_e)))
         s = (pair.rb[0] * theta[:, None, None] + pair.pb_t * np.arange(n_pairs)[None, :, None]
-             - y[None, None, :] * tb)  # (n_theta, n_pairs, n_slices)
+             + lag[None, None, :])  # (n_theta, n_pairs, n_slices)
         inside = (s >= 0) & (s <= g)
         f_min = shape_min(pair.eps_alpha)
         u = np.clip(s / g, 0, 1)
         k_sl = np.where(inside, iso_single_stiffness(pair) * (f_min + (1 - f_min) * 4 * u * (1 - u)) * (b / self.n_slices),
                         0.0)
-        return theta, k_sl, _gaps(pair, s, y, mods)
+        return theta, k_sl, _gaps(pair, s, z, mods)
 
 
 def equilibrium(k: np.ndarray, gap: np.ndarray, force: float) -> float:
@@ -197,10 +209,10 @@ def equilibrium(k: np.ndarray, gap: np.ndarray, force: float) -> float:
     return float(d[j])
 
 
-def _gaps(pair: GearPair, s: np.ndarray, y: np.ndarray, mods: MicroMods) -> np.ndarray:
-    """Initial separation at roll position ``s`` and face position ``y`` from the face end that enters
-    contact first, m: the material removed by ``mods`` along the transverse line of action (the
-    convention of :class:`MicroMods`)."""
+def _gaps(pair: GearPair, s: np.ndarray, z: np.ndarray, mods: MicroMods) -> np.ndarray:
+    """Initial separation at roll position ``s`` and axial position ``z`` (from the middle of the face
+    width), m: the material removed by ``mods`` along the transverse line of action (the convention of
+    :class:`MicroMods`)."""
     gap = np.zeros_like(s)
     rb1, rb2 = pair.rb
     rho_start1 = pair.roll_start_active[0]
@@ -224,11 +236,11 @@ def _gaps(pair: GearPair, s: np.ndarray, y: np.ndarray, mods: MicroMods) -> np.n
         span = max(tip - rho_ca, 1e-9)
         gap += ca * np.clip((rho[i] - rho_ca) / span, 0.0, None)
     b = pair.face_width
-    yy = np.broadcast_to(y, s.shape)
+    zz = np.broadcast_to(z, s.shape)
     if mods.lead_crowning:
-        gap += mods.lead_crowning * (2 * yy / b - 1) ** 2
+        gap += mods.lead_crowning * (2 * zz / b) ** 2
     if mods.helix_slope:
-        gap += mods.helix_slope * (yy / b - 0.5)
+        gap += mods.helix_slope * zz / b
     return gap
 
 

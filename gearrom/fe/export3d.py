@@ -101,15 +101,16 @@ class Inp3DInfo:
 def contact_pairs(pair, theta: float, margin: float = 0.1e-3) -> list[int]:
     """Tooth pairs whose contact line lies on the active flanks somewhere over the face width at ``theta``.
 
-    Pair ``p`` touches the z-section at input roll ``L1 = L1_SAP + r_b1 (theta - twist_1(z)) + p p_bt``
-    (:class:`~gearrom.fe.ltca_helical.Helical3DLTCA`); it is kept if that range over the common face
-    width meets the active roll range of gear 1 widened by ``margin`` [m].
+    Pair ``p`` touches the z-section at input roll ``L1 = L1_SAP + r_b1 (theta + contact_shift(z)) + p p_bt``
+    (:func:`gearrom.geometry.profile.contact_shift`, as :class:`~gearrom.fe.ltca_helical.Helical3DLTCA`);
+    it is kept if that range over the common face width meets the active roll range of gear 1 widened
+    by ``margin`` [m].
     """
-    from gearrom.geometry.profile import twist
+    from gearrom.geometry.profile import contact_shift
 
     b = pair.face_width
     z = np.linspace(-0.5 * b, 0.5 * b, 65)
-    L = pair.roll_start_active[0] + pair.rb[0] * (theta - np.asarray(twist(pair, 0, z), float))
+    L = pair.roll_start_active[0] + pair.rb[0] * (theta + np.asarray(contact_shift(pair, z), float))
     lo, hi = pair.roll_start_active[0] - margin, pair.roll_tip[0] + margin
     p_lo = math.floor((lo - L.max()) / pair.pb_t) - 1
     p_hi = math.ceil((hi - L.min()) / pair.pb_t) + 1

@@ -19,7 +19,13 @@ Conventions
   ``runout_phase`` from tooth 0; its projection on the line of action closes the gap.
 * Lead crowning and helix slope vary over the face width: the helical LTCAs
   (:mod:`gearrom.fe.ltca_helical`, :mod:`gearrom.fe.ltca_slices`) add them at each axial position;
-  the plane model of a spur pair ignores them (:func:`needs_3d`).
+  the plane model of a spur pair ignores them (:func:`needs_3d`). The axial position ``z`` is the
+  pair's (both gears' axes along +z, face width centred on z = 0, :mod:`gearrom.fe.mesh3d`): a
+  positive helix slope ``f_Hbeta`` of either gear removes ``f_Hbeta / 2`` at z = +b/2 and adds it at
+  z = -b/2, whatever the hand. Which of the two ends enters contact first depends on the hand
+  (:func:`gearrom.geometry.profile.entry_face_end`: z = -b/2 for a right-hand input gear), so the
+  same ``f_Hbeta`` on a left-hand pair gives the mirror image of the right-hand pair's response to
+  ``-f_Hbeta``.
 """
 from __future__ import annotations
 
@@ -60,7 +66,8 @@ def lead_removal(pair, i: int, z) -> np.ndarray:
     """Material removed by the lead modifications of gear ``i`` at axial positions ``z`` [m] from the middle
     of the face width, along the transverse line of action [m]: parabolic lead crowning ``C_b`` (zero in
     the middle, ``C_b`` at both ends of the face width ``b``) and helix slope ``f_Hbeta`` (linear, zero in
-    the middle, ``f_Hbeta / 2`` at +b/2)."""
+    the middle, ``f_Hbeta / 2`` at z = +b/2 of the pair's axial coordinate, for either gear and hand;
+    see the module doc)."""
     z = np.asarray(z, float)
     m = pair.gears[i].micro
     if not m.enabled:

@@ -3,10 +3,12 @@
 Contact lines: the face width is cut into ``n_slices`` strips at axial positions ``z_m``. The
 transverse section at ``z`` of gear 1 is its z = 0 section turned by the helix twist, so at input
 angle ``theta`` (clockwise, the running direction) it meshes like the z = 0 section at
-``theta_z = theta - twist_1(z)``; pair ``p`` touches there at input roll ``L1 = L1_SAP + r_b1 theta_z + p p_bt``
-(the oblique contact lines of the plane of action). Around each line point the contact is
-resolved across the line by ``2 K + 1`` patches of width ``d_mu`` (along the transverse profile,
-which is perpendicular to the contact line in the flank's tangent plane) and length
+``theta_z = theta - twist_1(z) = theta + contact_shift(z)``
+(:func:`gearrom.geometry.profile.contact_shift` derives it and the face end that enters contact
+first); pair ``p`` touches there at input roll ``L1 = L1_SAP + r_b1 theta_z + p p_bt`` (the oblique
+contact lines of the plane of action). Around each line point the contact is resolved across the
+line by ``2 K + 1`` patches of width ``d_mu`` (along the transverse profile, which is perpendicular
+to the contact line in the flank's tangent plane) and length
 ``d_z / cos(beta_b)`` (along the line): the candidates.
 
 Compliance between two candidates = for each gear the smooth 3D FE part ``B`` of
@@ -124,9 +126,9 @@ class Helical3DLTCA:
         self.T = pair.aw * math.sin(pair.alpha_wt)
         self.L1_start = pair.roll_start_active[0]
         self.pb = pair.pb_t
-        from gearrom.geometry.profile import twist
+        from gearrom.geometry.profile import contact_shift
 
-        self.shift = -np.asarray(twist(pair, 0, self.z), float)  # theta_z - theta (clockwise input angle)
+        self.shift = np.asarray(contact_shift(pair, self.z), float)  # theta_z - theta (clockwise input angle)
         s_lo = [c.sigma[0] - 0.5 * c.d_sigma for c in self.c]
         s_hi = [c.sigma[-1] + 0.5 * c.d_sigma for c in self.c]
         self.s_lo = tuple(s_lo)

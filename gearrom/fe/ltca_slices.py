@@ -1,12 +1,15 @@
 """Helical pairs by thin transverse slices (an approximation; the 3D model is :mod:`gearrom.fe.ltca_helical`).
 
 The face width is cut into ``n_slices`` slices. Each slice is the transverse section at its axial
-position ``z`` and meshes like a spur pair at the shifted position ``theta + z tan(beta_b) / r_b1``
-(the contact line runs across the face at the base helix angle). Its compliance is the plane-strain
-compliance of the transverse section (:mod:`gearrom.fe.compliance`) scaled to the slice thickness;
-the slices are *uncoupled* (no load spreading along the face width), which over-estimates end
-effects and the sensitivity to lead modifications. The rigid approach along the transverse line of
-action is common to all slices; the transverse force torque / r_b2 is shared among them.
+position ``z`` and meshes like a spur pair at the shifted position ``theta + contact_shift(z)``
+(:func:`gearrom.geometry.profile.contact_shift`: ``-h z tan(beta_b) / r_b1`` for an input gear of
+hand ``h`` = +1 right, -1 left; the contact line runs across the face at the base helix angle and the
+face end :func:`~gearrom.geometry.profile.entry_face_end` enters contact first), as in the 3D model.
+Its compliance is the plane-strain compliance of the transverse section (:mod:`gearrom.fe.compliance`)
+scaled to the slice thickness; the slices are *uncoupled* (no load spreading along the face width),
+which over-estimates end effects and the sensitivity to lead modifications. The rigid approach along
+the transverse line of action is common to all slices; the transverse force torque / r_b2 is shared
+among them.
 
 Gaps: every quantity of the contact problem is taken along the transverse line of action (the
 convention of :class:`~gearrom.fe.ltca.SpurLTCA`, whose candidates each slice uses): the
@@ -41,6 +44,7 @@ from gearrom.errors import SolverError
 from gearrom.fe.contact import solve_contact_blocks
 from gearrom.fe.flankgaps import lead_removal
 from gearrom.fe.ltca import PositionResult, SpurLTCA
+from gearrom.geometry.profile import contact_shift
 
 
 class HelicalSliceLTCA(SpurLTCA):
@@ -64,7 +68,7 @@ class HelicalSliceLTCA(SpurLTCA):
         self.n_slices = n_slices
         self.dz = b / n_slices
         self.z = (np.arange(n_slices) + 0.5) * self.dz - 0.5 * b
-        self.shift = self.z * math.tan(pair.beta_b) / pair.rb[0]  # input angle shift per slice [rad]
+        self.shift = np.asarray(contact_shift(pair, self.z), float)  # input angle shift per slice [rad]
         self.cosb = math.cos(pair.beta_b)
         # compliance of a slice of thickness dz: the plane model's (thickness b_i) times b_i / dz;
         # ``self.c`` keeps the plane compliances (reusable for a new micro-geometry)

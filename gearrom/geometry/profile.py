@@ -10,7 +10,9 @@ Frames and conventions
 * Tooth 0 is symmetric about the +y axis. Its "right" flank (x > 0) is the flank of negative
   polar angle offset; the "left" flank is its mirror image.
 * Helical gears: the section at axial position ``zeta`` is rotated by ``twist(pair, i, zeta)``
-  (counter-clockwise for a right hand helix when zeta grows, clockwise for a left hand one).
+  (counter-clockwise for a right hand helix when zeta grows, clockwise for a left hand one). The
+  pair's section at ``z`` meshes with the input angle shifted by :func:`contact_shift`; the face end
+  :func:`entry_face_end` enters contact first.
 
 For a helical gear the rack tip rounding of radius rho (normal section) is an ellipse in the
 transverse section with semi-axes rho (radial) and rho/cos(beta) (tangential).
@@ -301,3 +303,63 @@ def twist(pair: GearPair, i: int, zeta: float | np.ndarray) -> float | np.ndarra
         return 0.0 * np.asarray(zeta)
     sign = 1.0 if pair.gears[i].hand == "right" else -1.0
     return sign * 2 * math.pi * np.asarray(zeta) / lead
+
+
+def contact_shift(pair: GearPair, z: float | np.ndarray) -> float | np.ndarray:
+    """Input-angle shift of the contact in the transverse section at axial position ``z`` [rad].
+
+    The section of the pair at ``z`` (from the middle of the common face width) meshes at input angle
+    ``theta`` as the section z = 0 does at ``theta + contact_shift(pair, z)``: the contact of a tooth
+    pair lies at the input roll length ``L1(z) = L1(0) + r_b1 contact_shift(pair, z)`` on the transverse
+    path of contact. Every model of a helical mesh places its sections with this shift.
+
+    Parameters
+    ----------
+    pair : GearPair
+    z : float or ndarray
+        Axial positions [m], face width centred on z = 0.
+
+    Returns
+    -------
+    float or ndarray
+        ``-twist(pair, 0, z) = -h z tan(beta_b) / r_b1`` [rad] (hand ``h`` of the input gear: +1 right,
+        -1 left); zero for spur gears.
+
+    Notes
+    -----
+    Frames (:mod:`gearrom.fe.mesh3d`, :mod:`gearrom.fe.fullcontact`): right-handed ``(x, y, z)``, both
+    gear axes along +z, face width centred on z = 0; the output gear's frame is the input's turned
+    about its axis by pi and moved to ``(0, a_w)``, so both gears share the axial coordinate z. The
+    loaded flank of each gear is the right flank (x > 0) of its tooth on +y.
+
+    1. The input gear turns clockwise seen from +z (input angle ``theta > 0``, the running
+       direction): its right flanks lead and drive, and the contact runs along the transverse line of
+       action from the input's base circle towards the output's, ``dL1 = r_b1 dtheta``.
+    2. The flank is an involute helicoid: the section at z is the section z = 0 turned
+       counter-clockwise by ``twist(z) = h 2 pi z / p_z1 = h z tan(beta_b) / r_b1``
+       (:func:`twist`; ``2 pi r_b1 / p_z1 = tan(beta_b)``).
+    3. Turned clockwise by ``theta``, the section at z is the section z = 0 turned clockwise by
+       ``theta - twist(z)``: it touches where the section z = 0 touches at that angle, so the shift is
+       ``-twist(z)`` and ``L1(z) = L1(0) - h z tan(beta_b)``.
+    4. The output gear (hand -h, driven, turning counter-clockwise in its frame, ``dL2 = -r_b2
+       dtheta_2``) gives ``L2(z) = L2(0) + h z tan(beta_b)`` the same way: ``L1 + L2`` is the same in
+       every section, so the two helicoids touch along the whole contact line, which crosses the plane
+       of action at the base helix angle.
+
+    At any angle the section with the larger shift is further along the path of contact: it enters
+    the path first and leaves it first. For a right-hand input gear that is the face end
+    z = -b/2, ahead of z = +b/2 by ``b tan(beta_b) = eps_beta p_bt`` along the path; for a left-hand
+    input gear it is z = +b/2 (:func:`entry_face_end`).
+    """
+    return -twist(pair, 0, z)
+
+
+def entry_face_end(pair: GearPair) -> float:
+    """Axial position [m] of the end of the common face width that enters contact first.
+
+    ``-b/2`` for a right-hand input gear, ``+b/2`` for a left-hand one (:func:`contact_shift`: the end
+    with the larger shift leads along the path of contact); ``-b/2`` for spur gears, whose sections all
+    enter together.
+    """
+    half = 0.5 * pair.face_width
+    return half if pair.gears[0].hand == "left" else -half
