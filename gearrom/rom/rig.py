@@ -86,6 +86,42 @@ def excitation_info(cfg: GearConfig, torque: float, progress: bool = False) -> d
     return describe_excitation(rom["excitation"], load_excitation(cfg, rom, torque, progress=progress))
 
 
+def model_revisions(cfg: GearConfig, torque: float) -> dict[str, Any]:
+    """Revisions of the models whose results a ROM run of ``cfg`` at the output ``torque`` [N m] is built from.
+
+    Parameters
+    ----------
+    cfg : GearConfig
+        Loaded config.
+    torque : float
+        Output torque [N m].
+
+    Returns
+    -------
+    dict
+        JSON-serialisable: ``slices``, the thin-slice model's revision
+        (:data:`gearrom.excitation.slices.MODEL_REVISION`: the ROM follows the pitch deviations with it,
+        with the pair's flank modifications); with the ``"fe"`` excitation (``[rom] excitation``),
+        ``nominal_table``, that table's cache key (:func:`gearrom.excitation.sources.fe_table_key`: its
+        revision, pair and micro-geometry, torques, mesh and the gearrom version), and the revisions of
+        the FE compliances behind it (``compliance_2d``, ``compliance_3d``), which that key does not
+        cover. A table file named by ``[rom] excitation`` is covered by the file hashes of
+        :func:`gearrom.rom.sweep.reuse_key`; the analytical excitation and registered sources by the
+        gearrom version.
+    """
+    from gearrom.excitation.slices import MODEL_REVISION
+
+    out: dict[str, Any] = {"slices": MODEL_REVISION}
+    rom = rom_section(cfg)
+    if rom["excitation"] == "fe":
+        from gearrom.excitation.sources import fe_table_key
+        from gearrom.fe import compliance as c2d, compliance3d as c3d
+
+        out.update(nominal_table=fe_table_key(cfg, rom, torque), compliance_2d=c2d.CODE_VERSION,
+                   compliance_3d=c3d.CODE_VERSION)
+    return out
+
+
 def rig_parameters(config: GearConfig | str | Path) -> dict[str, Any]:
     """Every ``[rig]`` / ``[rom]`` parameter with its effective value (config or default), dotted keys.
 

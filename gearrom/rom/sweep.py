@@ -2,9 +2,10 @@
 
 Each speed is written to ``OUT/speeds/rpm_XXXXX.XXXX_<hash>.nc`` as soon as it finishes. The hash is
 taken from the reuse key of the run (:func:`reuse_key`: merged config content, contents of the files
-the config refers to, load torque, revolutions, samples per mesh, the linear flag and the package
-versions) together with the exact speed, so a rerun into the same ``OUT`` reuses a stored speed only
-when nothing it depends on has changed, and runs that differ in any of these keep separate files.
+the config refers to, load torque, revolutions, samples per mesh, the linear flag, the revisions of the
+models the run is built from and the package versions) together with the exact speed, so a rerun into
+the same ``OUT`` reuses a stored speed only when nothing it depends on has changed, and runs that
+differ in any of these keep separate files.
 Every file is written to a temporary file in the same directory and renamed into place, so an
 interrupted run never leaves a partial file that a resume would trust. Every run records
 ``n_output_revs`` output revolutions (an integer number of mesh periods) at ``samples_per_mesh`` samples
@@ -208,16 +209,19 @@ def reuse_key(cfg: "GearConfig", torque: float, n_output_revs: float, samples_pe
     dict
         JSON-serialisable key: the config digest (merged content, ``extends`` chain included), the
         SHA-256 of the bytes of every referenced file (:func:`referenced_files`), the run settings,
-        the layout of the stored file (``POINT_FORMAT``) and the versions of gearrom (module and
-        installed distribution) and exudyn.
+        the layout of the stored file (``POINT_FORMAT``), the revisions of the models the run is built
+        from (``models``, :func:`gearrom.rom.rig.model_revisions`: the thin-slice model behind the pitch
+        deviations, the ``"fe"`` excitation table's cache key and its FE compliances) and the versions
+        of gearrom (module and installed distribution) and exudyn.
     """
     import gearrom
+    from gearrom.rom.rig import model_revisions
 
     return {"config_digest": cfg.digest(),
             "files_sha256": {k: _file_sha256(p) for k, p in sorted(referenced_files(cfg).items())},
             "torque_out_Nm": repr(float(torque)), "n_output_revs": repr(float(n_output_revs)),
             "samples_per_mesh": int(samples_per_mesh), "linear": bool(linear), "point_format": POINT_FORMAT,
-            "gearrom_version": str(gearrom.__version__),
+            "models": model_revisions(cfg, torque), "gearrom_version": str(gearrom.__version__),
             "gearrom_distribution": _distribution_version("gearrom"),
             "exudyn_version": _distribution_version("exudyn")}
 

@@ -183,38 +183,24 @@ def model_revisions(cfg, settings: StudySettings) -> dict:
     Returns
     -------
     dict
-        JSON-serialisable: ``slices``, the thin-slice model's revision
-        (:data:`gearrom.excitation.slices.MODEL_REVISION`: the ROM follows the pitch deviations with it,
-        and ``micro_model="slices"`` or the FE model's fallback changes the table with it); with
+        JSON-serialisable: the revisions of the ROM run's models at the study's torque
+        (:func:`gearrom.rom.rig.model_revisions`: ``slices``, the thin-slice model, which also changes the
+        table with ``micro_model="slices"`` or as the FE model's fallback; with the ``"fe"`` nominal table
+        ``nominal_table`` and the FE compliances ``compliance_2d``, ``compliance_3d``); with
         ``micro_model="fe"``, ``micro_fe`` (:data:`gearrom.calibrate.microfe.CODE_VERSION`), ``fe_slices``
-        (:data:`gearrom.excitation.fe.SLICES_REVISION`, the slice LTCA behind it) and ``compliance_2d``
-        (the FE compliances it solves with); with the ``"fe"`` nominal table (``[rom] excitation``),
-        ``nominal_table``, that table's cache key (:func:`gearrom.excitation.sources.fe_table_key`: its
-        revision, pair, torques, mesh and the gearrom version), and the revisions of the FE compliances
-        behind it (``compliance_2d``, ``compliance_3d``), which that key does not cover. A table file
-        named by ``[rom] excitation`` is covered by the reuse key's file hashes.
+        (:data:`gearrom.excitation.fe.SLICES_REVISION`, the slice LTCA behind it) and the FE compliances it
+        solves with (``compliance_2d``, ``compliance_3d``).
     """
-    from gearrom.excitation.slices import MODEL_REVISION
-    from gearrom.rom.rig import rom_section
+    from gearrom.rom.rig import model_revisions as rom_revisions
 
-    out: dict = {"slices": MODEL_REVISION}
-    compliance = False
+    out = rom_revisions(cfg, settings.torque_out_Nm)
     if settings.micro_model == "fe":
         from gearrom.calibrate.microfe import CODE_VERSION
         from gearrom.excitation.fe import SLICES_REVISION
-
-        out.update(micro_fe=CODE_VERSION, fe_slices=SLICES_REVISION)
-        compliance = True
-    rom = rom_section(cfg)
-    if rom["excitation"] == "fe":
-        from gearrom.excitation.sources import fe_table_key
-
-        out["nominal_table"] = fe_table_key(cfg, rom, settings.torque_out_Nm)
-        compliance = True
-    if compliance:
         from gearrom.fe import compliance as c2d, compliance3d as c3d
 
-        out.update(compliance_2d=c2d.CODE_VERSION, compliance_3d=c3d.CODE_VERSION)
+        out.update(micro_fe=CODE_VERSION, fe_slices=SLICES_REVISION, compliance_2d=c2d.CODE_VERSION,
+                   compliance_3d=c3d.CODE_VERSION)
     return out
 
 

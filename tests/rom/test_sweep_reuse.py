@@ -1,4 +1,5 @@
 """Sweep reuse: stored per-speed results are keyed by everything they depend on and written atomically."""
+import math
 import threading
 import warnings
 from pathlib import Path
@@ -91,6 +92,59 @@ def test_package_version_is_part_of_the_key(tmp_path, count_runs, monkeypatch):
     monkeypatch.setattr(gearrom, "__version__", gearrom.__version__ + ".post999")
     run_sweep(cfg, [1000.0], out, **FAST)
     assert len(count_runs) == 2
+
+
+@pytest.mark.parametrize("module,name,still_reused", [
+    ("gearrom.excitation.slices", "MODEL_REVISION", False),  # the ROM follows the pitch deviations with it
+    ("gearrom.calibrate.microfe", "CODE_VERSION", True),  # a model a sweep does not run on
+])
+def test_speeds_of_another_model_revision_are_not_reused(tmp_path, count_runs, monkeypatch, module, name,
+                                                         still_reused):
+    """A rerun into the same folder reuses a stored speed only while the revisions of the models it was
+    computed with are unchanged.
+
+    Reference: the simulations run. A sweep of a config with pitch deviations on the input gear (the ROM
+    follows them with the thin-slice model, :func:`gearrom.excitation.slices.pitch_te`) over a stored
+    excitation table is run and rerun (reused), then the revision constant of one model is changed (as
+    a code change of that model does) and the sweep rerun: the speed is simulated again when the run
+    uses that model, and reused when it does not (the FE micro-geometry model of the diagnosis).
+    """
+    import importlib
+
+    cfg = _table_config(tmp_path)
+    z1 = load_config("thesis-rig").pair.z[0]
+    pitch = ", ".join(f"{2.0 * math.sin(2 * math.pi * j / z1):.3f}" for j in range(z1))
+    cfg.write_text(cfg.read_text() + f"[input_gear.microgeometry]\nenabled = true\npitch_deviations_um = [{pitch}]\n")
+    out = tmp_path / "out"
+    run_sweep(cfg, [1000.0], out, **FAST)
+    run_sweep(cfg, [1000.0], out, **FAST)
+    assert len(count_runs) == 1
+    monkeypatch.setattr(importlib.import_module(module), name, "changed")
+    run_sweep(cfg, [1000.0], out, **FAST)
+    assert len(count_runs) == (1 if still_reused else 2)
+
+
+@pytest.mark.parametrize("module,name,changes", [
+    ("gearrom.excitation.slices", "MODEL_REVISION", True),
+    ("gearrom.excitation.fe", "TABLE_REVISION", True),  # the nominal FE table of thesis-rig
+    ("gearrom.fe.compliance3d", "CODE_VERSION", True),  # the 3D compliances behind that table
+    ("gearrom.fe.compliance", "CODE_VERSION", True),
+    ("gearrom.excitation.fe", "SLICES_REVISION", False),  # the helical slice LTCA: not the table's model
+    ("gearrom.calibrate.microfe", "CODE_VERSION", False),
+])
+def test_fe_excitation_revisions_are_part_of_the_key(monkeypatch, module, name, changes):
+    """The reuse key of a sweep on the ``"fe"`` excitation (thesis-rig's) changes with the revision of every
+    model its speeds are built from, and only with those (no table is computed for the key)."""
+    import importlib
+
+    from gearrom.rom.sweep import reuse_key
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        cfg = load_config("thesis-rig")
+    before = reuse_key(cfg, 120.0, 1.0, 64, False)
+    monkeypatch.setattr(importlib.import_module(module), name, "changed")
+    assert (reuse_key(cfg, 120.0, 1.0, 64, False) != before) is changes
 
 
 def test_torques_do_not_overwrite_each_other(tmp_path, count_runs):
