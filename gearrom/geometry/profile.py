@@ -311,7 +311,8 @@ def contact_shift(pair: GearPair, z: float | np.ndarray) -> float | np.ndarray:
     The section of the pair at ``z`` (from the middle of the common face width) meshes at input angle
     ``theta`` as the section z = 0 does at ``theta + contact_shift(pair, z)``: the contact of a tooth
     pair lies at the input roll length ``L1(z) = L1(0) + r_b1 contact_shift(pair, z)`` on the transverse
-    path of contact. Every model of a helical mesh places its sections with this shift.
+    path of contact. The slice and 3D LTCAs and the analytical thin-slice model place their sections
+    with this shift (the explicit FE model meshes the helicoids themselves, :func:`twist`).
 
     Parameters
     ----------
