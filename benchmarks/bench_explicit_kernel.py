@@ -26,11 +26,12 @@ and the share of the elements, the contact and the damping in the step (the same
 without relative damping). Writes ``hex8_helical_reference`` into the results file.
 
 ``--kernel-variants``: on the same reference model and element schedule, the fully integrated Hex8 element
-pass alone (no step around it) with the package kernel (:func:`gearrom.fe.explicit.kernels.hex8_full_element`:
-displacements read once, forces summed over the Gauss points locally, written once) and with the baseline form
-kept here (:func:`_hex8_full_per_gauss`: displacements read and forces written at every Gauss point), serial
-and on both cores, in one run, with the largest force difference between the two. Writes
-``hex8_full_kernel_variants``.
+pass alone (no step around it), serial and on both cores, in one run: the package (its kernel
+:func:`gearrom.fe.explicit.kernels.hex8_full_element`: displacements read once, forces summed over the Gauss
+points locally, written once; the Gauss gradients in single precision as ``prepare`` stores them), the same
+kernel on double-precision gradients, and the baseline form kept here (:func:`_hex8_full_per_gauss`:
+displacements read and forces written at every Gauss point, double-precision gradients); with the largest force
+difference to the baseline. Writes ``hex8_full_kernel_variants``.
 """
 from __future__ import annotations
 
@@ -272,28 +273,34 @@ def measure_kernel_variants(repeats: int = 5) -> dict:
     ne = conn.shape[0]
     out = {"n_elements": ne, "repeats": repeats}
     forces = {}
+    Bg64 = Bg.astype(np.float64)
+    package, baseline = _element_pass(hex8_full_element), _element_pass(_hex8_full_per_gauss)
+    variants = (("package", package, Bg), ("package_float64_gradients", package, Bg64),
+                ("per_gauss_baseline", baseline, Bg64))
     for threads in (1, 2):
         numba.set_num_threads(threads)
-        for name, kernel in (("package", hex8_full_element), ("per_gauss_baseline", _hex8_full_per_gauss)):
-            run = _element_pass(kernel)
+        for name, run, grads in variants:
             f = np.zeros_like(u)
-            run(conn, u, Bg, Wg, lam, mu, f, cptr, bptr)     # compile
+            run(conn, u, grads, Wg, lam, mu, f, cptr, bptr)     # compile
             forces[name] = f
             walls = []
             for _ in range(repeats):
                 f[:] = 0.0
                 t0 = time.perf_counter()
-                run(conn, u, Bg, Wg, lam, mu, f, cptr, bptr)
+                run(conn, u, grads, Wg, lam, mu, f, cptr, bptr)
                 walls.append(time.perf_counter() - t0)
             wall = min(walls)
             out[f"{name}_{threads}_threads"] = {"ms_per_pass": wall * 1e3, "element_updates_per_s": ne / wall,
                                                 "wall_s_repeats": walls}
             print(f"{name}, {threads} thread(s): {wall * 1e3:.1f} ms per pass, {ne / wall:.3g} element updates per s",
                   flush=True)
-        out[f"speedup_{threads}_threads"] = (out[f"per_gauss_baseline_{threads}_threads"]["ms_per_pass"]
-                                             / out[f"package_{threads}_threads"]["ms_per_pass"])
+        for name in ("package", "package_float64_gradients"):
+            out[f"speedup_{name}_{threads}_threads"] = (out[f"per_gauss_baseline_{threads}_threads"]["ms_per_pass"]
+                                                        / out[f"{name}_{threads}_threads"]["ms_per_pass"])
     scale = np.abs(forces["per_gauss_baseline"]).max()
-    out["max_force_difference_rel"] = float(np.abs(forces["package"] - forces["per_gauss_baseline"]).max() / scale)
+    for name in ("package", "package_float64_gradients"):
+        out[f"max_force_difference_rel_{name}"] = float(np.abs(forces[name] - forces["per_gauss_baseline"]).max()
+                                                        / scale)
     out["model"] = "helical validation reference (run_ringdown.REFERENCE_MESH_HELICAL), element pass only"
     return out
 
