@@ -6,8 +6,8 @@ encoders read x4, 80 MHz counter. Cases: every library effect at 0.5, 1, 2 and 4
 tolerance on the chosen pair, pairs of effects, a clean record, and out-of-library effects (a brake
 load ripple at a non-integer output order, a pitted tooth).
 
-Flank modifications are compared normal to the flank (datasim states them on the transverse line of
-action: x cos(beta_b)). Criteria (from 1 x tolerance up): the effect is named first with the right target, its size is
+Flank modifications are compared as datasim and gearrom both state them, on the transverse line of action
+(ISO 1328-1). Criteria (from 1 x tolerance up): the effect is named first with the right target, its size is
 within 25 % of the truth, the error rms after is at most half the error before. Clean: no effect
 added. Load ripple: reported unexplained at its output order. Pitted tooth: reported unexplained as a
 tooth-local pulse of the right gear within one tooth of the pitted one. 0.5 x and the set-back tooth are
@@ -125,14 +125,6 @@ def cases(pair: str, sizes: tuple[float, ...]) -> list[tuple[str, Case, dict]]:
     out.append(("pitted_tooth", Case("pitted_tooth", (DamagedTooth("input_gear", 11, 20.0),)),
                 {"unexplained_pulse": ("input", 11)}))
     return out
-
-
-def flank_normal(pair: str) -> float:
-    """cos(beta_b) of the pair: datasim gives flank deviations on the transverse line of action, gearrom's
-    flank modifications (tip relief, lead crowning, helix slope) are amounts normal to the flank."""
-    from gearrom.config import load_config
-
-    return math.cos(load_config("thesis-rig" if pair == "helical" else "thesis-spur", check=False).pair.beta_b)
 
 
 def _size(e: dict) -> float | None:
@@ -261,7 +253,6 @@ def flank_signature_spread(pair: str, scale: float = 4.0, torque: float = 120.0)
     n, period = 96, 2 * math.pi / gp.z[0]
     theta = np.arange(n) * period / n
     g = dgeo.geometry_from_config(pair)
-    cb = flank_normal(pair)
     torques = [0.5 * torque, torque, 1.5 * torque]
 
     def row(d):
@@ -285,15 +276,15 @@ def flank_signature_spread(pair: str, scale: float = 4.0, torque: float = 120.0)
         for i, gname in enumerate(("input_gear", "output_gear")):
             c = scale * TOL["tip_relief_" + ("in" if i == 0 else "out")]
             amounts = [0.0, 0.0]
-            amounts[i] = c * cb * 1e-6
+            amounts[i] = c * 1e-6
             starts = [None, None]
             starts[i] = tip[i] * 1e-3
             mods.append((f"tip_relief/{gname}", Case("m", (TipRelief(gname, c, tip[i]),)),
                          MicroMods(tip_relief=tuple(amounts), tip_relief_start_diameter=tuple(starts))))
     c = scale * TOL["lead_crowning"]
-    mods.append(("lead_crowning", Case("m", (LeadCrowning(c),)), MicroMods(lead_crowning=c * cb * 1e-6)))
+    mods.append(("lead_crowning", Case("m", (LeadCrowning(c),)), MicroMods(lead_crowning=c * 1e-6)))
     c = scale * TOL["helix_slope"]
-    mods.append(("helix_slope", Case("m", (HelixSlope(c),)), MicroMods(helix_slope=c * cb * 1e-6)))
+    mods.append(("helix_slope", Case("m", (HelixSlope(c),)), MicroMods(helix_slope=c * 1e-6)))
     out = {"scale": scale, "torque_Nm": torque, "effects": {}}
     for name, case, mm in mods:
         e = {"datasim": row(ds(case) - base_ds)}
@@ -402,10 +393,6 @@ def main(argv=None) -> int:
     doc = json.loads(out_path.read_text()) if out_path.exists() else {"cases": {}}
     sizes = tuple(float(x) for x in args.sizes.split(","))
     todo = [c for c in cases(args.pair, sizes) if (not args.only or args.only in c[0])]
-    cb = flank_normal(args.pair)
-    for _, _, exp in todo:  # flank modifications in gearrom's convention
-        if exp.get("effect") in ("tip_relief", "lead_crowning", "helix_slope"):
-            exp["size"] *= cb
     for i, (cid, case, exp) in enumerate(todo):
         if cid in doc["cases"] and not args.force:
             continue
