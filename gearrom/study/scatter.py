@@ -7,7 +7,7 @@ model), adds the pitch deviations and runout as ROM kinematic effects, simulates
 writes ``OUT/samples/sample_NNNNNN_<hash>.nc`` through a temporary file and a rename. The hash covers
 the run's reuse key (config content, referenced files, torque, revolutions, samples per mesh,
 versions), the speeds, the micro-geometry model, the revisions of the models a sample runs on
-(:func:`model_revisions`) and the sample's deviations, so a rerun into the same ``OUT`` reuses exactly
+(:func:`study_key`) and the sample's deviations, so a rerun into the same ``OUT`` reuses exactly
 the samples that would come out the same, and a task that runs twice (its worker was lost after the
 write) rewrites the same file.
 """
@@ -171,37 +171,22 @@ def run_sample(task: SampleTask) -> dict:
             "gmf_um": ds["gmf_um"].values, "features": feats, "cpu_s": cpu, "reused": False}
 
 
-def model_revisions(cfg, settings: StudySettings) -> dict:
-    """Revisions of the models whose results a sample of ``cfg`` is built from.
+def _micro_revisions(settings: StudySettings) -> dict:
+    """Revisions of the micro-geometry model a sample's table comes from, beyond those of the ROM run.
 
-    Parameters
-    ----------
-    cfg : GearConfig
-        Loaded config.
-    settings : StudySettings
-
-    Returns
-    -------
-    dict
-        JSON-serialisable: the revisions of the ROM run's models at the study's torque
-        (:func:`gearrom.rom.rig.model_revisions`: ``slices``, the thin-slice model, which also changes the
-        table with ``micro_model="slices"`` or as the FE model's fallback; with the ``"fe"`` nominal table
-        ``nominal_table`` and the FE compliances ``compliance_2d``, ``compliance_3d``); with
-        ``micro_model="fe"``, ``micro_fe`` (:data:`gearrom.calibrate.microfe.CODE_VERSION`), ``fe_slices``
-        (:data:`gearrom.excitation.fe.SLICES_REVISION`, the slice LTCA behind it) and the FE compliances it
-        solves with (``compliance_2d``, ``compliance_3d``).
+    With ``micro_model="fe"``: ``micro_fe`` (:data:`gearrom.calibrate.microfe.CODE_VERSION`), ``fe_slices``
+    (:data:`gearrom.excitation.fe.SLICES_REVISION`, the slice LTCA behind it) and the FE compliances it
+    solves with (``compliance_2d``, ``compliance_3d``). The thin-slice model (``micro_model="slices"``, and
+    the FE model's fallback) is in the ROM run's revisions already (:func:`gearrom.rom.rig.model_revisions`).
     """
-    from gearrom.rom.rig import model_revisions as rom_revisions
+    if settings.micro_model != "fe":
+        return {}
+    from gearrom.calibrate.microfe import CODE_VERSION
+    from gearrom.excitation.fe import SLICES_REVISION
+    from gearrom.fe import compliance as c2d, compliance3d as c3d
 
-    out = rom_revisions(cfg, settings.torque_out_Nm)
-    if settings.micro_model == "fe":
-        from gearrom.calibrate.microfe import CODE_VERSION
-        from gearrom.excitation.fe import SLICES_REVISION
-        from gearrom.fe import compliance as c2d, compliance3d as c3d
-
-        out.update(micro_fe=CODE_VERSION, fe_slices=SLICES_REVISION, compliance_2d=c2d.CODE_VERSION,
-                   compliance_3d=c3d.CODE_VERSION)
-    return out
+    return {"micro_fe": CODE_VERSION, "fe_slices": SLICES_REVISION, "compliance_2d": c2d.CODE_VERSION,
+            "compliance_3d": c3d.CODE_VERSION}
 
 
 def study_key(config_ref: str, settings: StudySettings) -> dict:
@@ -217,17 +202,17 @@ def study_key(config_ref: str, settings: StudySettings) -> dict:
     -------
     dict
         JSON-serialisable: the run's reuse key (:func:`gearrom.rom.sweep.reuse_key`: config content,
-        referenced files, torque, revolutions, samples per mesh, versions), the speeds, the
-        micro-geometry model and the revisions of the models a sample runs on (``models``,
-        :func:`model_revisions`). A stored sample is reused only under an equal key.
+        referenced files, torque, revolutions, samples per mesh, the revisions of the ROM run's models,
+        versions), the speeds, the micro-geometry model, and in ``models`` also the revisions of that
+        model (:func:`_micro_revisions`). A stored sample is reused only under an equal key.
     """
     from gearrom.config import as_config
     from gearrom.rom.sweep import reuse_key
 
     cfg = as_config(config_ref, check=True)
     key = reuse_key(cfg, settings.torque_out_Nm, settings.n_output_revs, settings.samples_per_mesh, False)
-    key.update(rpm=[repr(float(r)) for r in settings.rpm], micro_model=settings.micro_model,
-               models=model_revisions(cfg, settings), format=1)
+    key["models"] = {**key["models"], **_micro_revisions(settings)}
+    key.update(rpm=[repr(float(r)) for r in settings.rpm], micro_model=settings.micro_model, format=1)
     return key
 
 
