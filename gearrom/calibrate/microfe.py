@@ -133,16 +133,26 @@ class FEMicroModel:
                 _LTCA[key] = None
         return _LTCA[key]
 
+    def table_key(self, pair, torques_Nm, mods: MicroMods) -> str:
+        """Key of the table :meth:`excitation` gives (cache file ``micro-<key>.nc``): the LTCA's revision
+        (:data:`CODE_VERSION`), the gearrom version, the pair, ``mods``, the torques [N m], the positions, the
+        helical model and the revision of the FE compliances behind it
+        (:func:`gearrom.excitation.fe.compliance_revision`)."""
+        from gearrom import __version__
+        from gearrom.excitation.fe import compliance_revision
+
+        tq = tuple(float(t) for t in np.atleast_1d(np.asarray(torques_Nm, float)))
+        return hashlib.sha1(json.dumps([CODE_VERSION, __version__, _pair_key(pair), repr(mods), tq, self.n_positions,
+                                        self.helical_model, compliance_revision(pair, self.helical_model)]
+                                       ).encode()).hexdigest()[:24]
+
     def excitation(self, pair, torques_Nm, mods: MicroMods) -> MeshExcitation:
         """Mesh excitation table of ``pair`` with the flank modifications ``mods`` (FE contact, no FE solve)."""
         tq = tuple(float(t) for t in np.atleast_1d(np.asarray(torques_Nm, float)))
         ltca = self.ltca(pair)
         if ltca is None:
             return SliceMicroModel().excitation(pair, tq, mods)
-        from gearrom import __version__
-
-        key = hashlib.sha1(json.dumps([CODE_VERSION, __version__, _pair_key(pair), repr(mods), tq, self.n_positions,
-                                       self.helical_model]).encode()).hexdigest()[:24]
+        key = self.table_key(pair, tq, mods)
         if key in _MEMORY:
             return _MEMORY[key]
         from gearrom.fe.cache import FECache, cached

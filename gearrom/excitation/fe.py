@@ -9,8 +9,8 @@ micro-geometry of the pair's gears enters the contact solves (no new FE solve).
 The table is stored in ``<cache>/tables/table-<key>.nc`` (:class:`gearrom.fe.cache.FECache`: atomic
 writes; a damaged entry is reported in one line and recomputed; an unwritable folder gives one
 warning and the table is kept in memory). The key hashes the pair (geometry, tools, materials,
-micro-geometry), the ``[fe]`` mesh settings, the torques, the position count, the model and the
-gearrom version. The FE compliances themselves come from the FE cache, so a new torque map or
+micro-geometry), the ``[fe]`` mesh settings, the torques, the position count, the model, the revision
+of the compliances it is built on and the gearrom version. The FE compliances themselves come from the FE cache, so a new torque map or
 micro-geometry costs only the contact solves.
 """
 from __future__ import annotations
@@ -67,10 +67,22 @@ def flank_pair(pair):
     return dataclasses.replace(pair, gears=tuple(gears))
 
 
+def compliance_revision(pair, helical_model: str = "3d") -> str:
+    """Code revision of the FE compliances an LTCA of ``pair`` is built on: the 3D sector compliances
+    (:data:`gearrom.fe.compliance3d.CODE_VERSION`) for the ``"3d"`` model of a helical pair, the
+    plane-strain ones (:data:`gearrom.fe.compliance.CODE_VERSION`) for a spur pair and the helical
+    ``"slices"`` model. Part of the keys of the results computed from them (the compliances are cached
+    under keys of their own, which a table's key does not otherwise cover)."""
+    from gearrom.fe import compliance as c2d, compliance3d as c3d
+
+    return c3d.CODE_VERSION if pair.is_helical and helical_model == "3d" else c2d.CODE_VERSION
+
+
 def table_key(pair, torques: Sequence[float], n_positions: int, settings=None, helical_model: str = "3d",
               n_slices: int | None = None) -> str:
     """Content key of a table: pair, torques, positions, mesh settings, model, strips of a helical
-    model (when not the default), the slice model's revision (:data:`SLICES_REVISION`, slice tables
+    model (when not the default), the revision of the compliances behind it
+    (:func:`compliance_revision`), the slice model's revision (:data:`SLICES_REVISION`, slice tables
     only), gearrom version."""
     from gearrom.fe.cache import cache_key
     from gearrom.fe.mesh3d import Mesh3DSettings
@@ -78,7 +90,8 @@ def table_key(pair, torques: Sequence[float], n_positions: int, settings=None, h
     model = helical_model if pair.is_helical else "2d"
     mesh = repr(Mesh3DSettings()) if model == "3d" else repr(settings)  # the mesh the LTCA is built on
     content = {"pair": _pair_key(pair), "torques_Nm": [repr(float(t)) for t in torques],
-               "n_positions": int(n_positions), "mesh": mesh, "helical_model": model}
+               "n_positions": int(n_positions), "mesh": mesh, "helical_model": model,
+               "compliance": compliance_revision(pair, model)}
     if pair.is_helical and n_slices is not None and int(n_slices) != DEFAULT_SLICES:
         content["n_slices"] = int(n_slices)
     if model == "slices":

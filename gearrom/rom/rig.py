@@ -103,9 +103,8 @@ def model_revisions(cfg: GearConfig, torque: float) -> dict[str, Any]:
         (:data:`gearrom.excitation.slices.MODEL_REVISION`: the ROM follows the pitch deviations with it,
         with the pair's flank modifications); with the ``"fe"`` excitation (``[rom] excitation``),
         ``nominal_table``, that table's cache key (:func:`gearrom.excitation.sources.fe_table_key`: its
-        revision, pair and micro-geometry, torques, mesh and the gearrom version), and the revisions of
-        the FE compliances behind it (``compliance_2d``, ``compliance_3d``), which that key does not
-        cover. A table file named by ``[rom] excitation`` is covered by the file hashes of
+        revision, pair and micro-geometry, torques, mesh, the revision of the FE compliances behind it
+        and the gearrom version). A table file named by ``[rom] excitation`` is covered by the file hashes of
         :func:`gearrom.rom.sweep.reuse_key`; the analytical excitation and registered sources by the
         gearrom version.
     """
@@ -115,10 +114,8 @@ def model_revisions(cfg: GearConfig, torque: float) -> dict[str, Any]:
     rom = rom_section(cfg)
     if rom["excitation"] == "fe":
         from gearrom.excitation.sources import fe_table_key
-        from gearrom.fe import compliance as c2d, compliance3d as c3d
 
-        out.update(nominal_table=fe_table_key(cfg, rom, torque), compliance_2d=c2d.CODE_VERSION,
-                   compliance_3d=c3d.CODE_VERSION)
+        out.update(nominal_table=fe_table_key(cfg, rom, torque))
     return out
 
 

@@ -134,3 +134,29 @@ def test_helical_strip_count_is_part_of_the_table_key():
     assert table_key(helical, [120.0], 64, n_slices=DEFAULT_SLICES) == base
     assert table_key(helical, [120.0], 64, n_slices=96) != base
     assert table_key(spur, [120.0], 64, n_slices=96) == table_key(spur, [120.0], 64)
+
+
+@pytest.mark.parametrize("config,helical_model,changes_with", [
+    ("thesis-spur", "3d", "gearrom.fe.compliance"),              # spur: plane-strain compliances
+    ("thesis-helical", "3d", "gearrom.fe.compliance3d"),         # helical 3D LTCA: 3D sector compliances
+    ("thesis-helical", "slices", "gearrom.fe.compliance"),       # helical slice LTCA: plane-strain sections
+])
+def test_table_key_follows_the_revision_of_its_compliances(monkeypatch, config, helical_model, changes_with):
+    """The compliances are cached under keys of their own: a table's key (and the key of the diagnosis'
+    FE micro-geometry tables) changes with the code revision of the compliances its LTCA is built on,
+    and not with the other kind's."""
+    import importlib
+
+    from gearrom.calibrate import MicroMods
+    from gearrom.calibrate.microfe import FEMicroModel
+    from gearrom.excitation.fe import table_key
+
+    pair = load_config(config).pair
+    micro = FEMicroModel(helical_model=helical_model)
+    before = (table_key(pair, [120.0], 64, helical_model=helical_model), micro.table_key(pair, [120.0], MicroMods()))
+    for module in ("gearrom.fe.compliance", "gearrom.fe.compliance3d"):
+        with monkeypatch.context() as m:
+            m.setattr(importlib.import_module(module), "CODE_VERSION", "changed")
+            after = (table_key(pair, [120.0], 64, helical_model=helical_model),
+                     micro.table_key(pair, [120.0], MicroMods()))
+            assert [a != b for a, b in zip(after, before)] == [module == changes_with] * 2, module
