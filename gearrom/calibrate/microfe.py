@@ -36,7 +36,7 @@ from gearrom.excitation.table import MeshExcitation
 
 log = logging.getLogger(__name__)
 #: part of the result cache key: the revision of the LTCA (gaps, forces, pressure, helix hand) behind the stored tables
-CODE_VERSION = 6
+CODE_VERSION = 7
 SPUR_SLICES = 8  # face slices of a spur pair (uniform unless a lead modification is set)
 _MEMORY: dict = {}
 _LTCA: dict = {}

@@ -28,7 +28,7 @@ log = logging.getLogger(__name__)
 #: torque map of the tables, as multiples of the operating output torque
 TORQUE_MAP = (0.25, 0.5, 0.75, 1.0, 1.5, 2.0)
 #: revision of the way the table is computed (part of the cache key)
-TABLE_REVISION = "fe-table-v1"
+TABLE_REVISION = "fe-table-v2"
 #: revision of the helical slice model (transverse gaps; normal contact forces and the pressure on the
 #: flank patch; sections shifted by the helix hand, :func:`gearrom.geometry.profile.contact_shift`), part of
 #: the key of the tables of ``helical_model="slices"``

@@ -221,8 +221,9 @@ class Helical3DLTCA:
             self._table_K = K
         return self._table
 
-    def compliance_matrix(self, d: dict, K: int) -> np.ndarray:
-        """Normal compliance [m/N] between all candidates of :meth:`_fine` (rows response, columns load)."""
+    def line_compliance(self, d: dict) -> np.ndarray:
+        """FE normal compliance [m/N] between the contact lines (slice, pair) of the candidates ``d`` of
+        :meth:`_fine` (symmetric: rows response, columns load); every candidate of a line shares it."""
         lp = d["line_p"]
         Cl = np.zeros((lp.size, lp.size))
         for g, (c, s) in enumerate(zip(self.c, (d["line_s1"], d["line_s2"]))):
@@ -233,9 +234,13 @@ class Helical3DLTCA:
                     continue
                 Y = W @ c.block(int(o)) @ W.T  # [i load, j response]
                 Cl += np.where((off == o).T, Y.T, 0.0)
+        return 0.5 * (Cl + Cl.T)  # the FE part is symmetric up to discretisation (~2 %); the table is symmetric
+
+    def compliance_matrix(self, d: dict, K: int) -> np.ndarray:
+        """Normal compliance [m/N] between all candidates of :meth:`_fine` (rows response, columns load): the
+        FE part of their lines (:meth:`line_compliance`) and the half-space near field within a line's pair."""
         li = d["li"]
-        Cl = 0.5 * (Cl + Cl.T)  # the FE part is symmetric up to discretisation (~2 %); the table is symmetric
-        C = Cl[np.ix_(li, li)]
+        C = self.line_compliance(d)[np.ix_(li, li)]
         tab = self._hs_table(K)
         p = d["p"]
         cuts = np.flatnonzero(np.diff(p)) + 1
@@ -255,35 +260,63 @@ class Helical3DLTCA:
             return self._solve_many(theta, torques, mesh_index, only)
 
     def _solve_many(self, theta: float, torques, mesh_index: int, only) -> list[HelicalPositionResult]:
-        K = self.K
+        """Each torque on its own candidate window: it starts at :attr:`K` patches each side of the contact
+        lines and doubles while the solution loads the window's edge or could touch outside it
+        (:meth:`_touches_outside`), so that a torque's result does not depend on the others of the call."""
         where = f" at theta = {math.degrees(theta):.4f} deg (mesh {mesh_index})"
-        for _ in range(4):
-            d = self._fine(theta, mesh_index, K, only)
-            if not d:
-                raise SolverError(f"contact not found{where}: no flank points of both gears lie near the contact lines")
-            C = self.compliance_matrix(d, K)
-            h = d["gap_t"] * self.cosb
-            kin = float(d["gap_t"].min())
-            results, grow = [], False
-            for tq in torques:
+        windows: dict[int, tuple] = {}
+
+        def window(K: int):
+            if K not in windows:
+                d = self._fine(theta, mesh_index, K, only)
+                if not d:
+                    raise SolverError(f"contact not found{where}: no flank points of both gears lie near the "
+                                      "contact lines")
+                windows[K] = (d, self.compliance_matrix(d, K))
+            return windows[K]
+
+        results = []
+        for tq in torques:
+            K = self.K
+            for _ in range(4):
+                d, C = window(K)
                 Ft = tq / self.pair.rb[1]
-                sol = self._contact(C, h, Ft / self.cosb, tq, where)
-                if np.any(sol.f[d["edge"]] > 1e-9 * Ft):
-                    grow = True
+                sol = self._contact(C, d["gap_t"] * self.cosb, Ft / self.cosb, tq, where)
+                if not (np.any(sol.f[d["edge"]] > 1e-9 * Ft) or self._touches_outside(theta, mesh_index, K, only,
+                                                                                      d, sol)):
                     break
-                if sol.gap.min() < -self.tol:
-                    raise SolverError(f"penetration {-sol.gap.min() * 1e6:.3g} um{where} exceeds {self.tol * 1e6:.3g} um")
-                ft = sol.f * self.cosb  # share of the transverse line-of-action force
-                pf = np.array([ft[d["p"] == p].sum() for p in self.pair_range])
-                results.append(HelicalPositionResult(
-                    theta=theta, torque=tq, ste=sol.delta / self.cosb, ste_kinematic=kin, force=Ft, pair=d["p"],
-                    roll1=d["roll1"], force_c=sol.f, pressure=sol.f / (self.d_mu * self.d_lam),
-                    pairs=self.pair_range.copy(), pair_force=pf, z=d["z"]))
-            if not grow:
-                self.last_state = (theta, mesh_index, K, d)  # candidates of the last solve (exports, checks)
-                return results
-            K *= 2
-        raise SolverError(f"contact zone reaches the candidate window{where} even at {K * self.d_mu * 1e3:.2f} mm")
+                K *= 2
+            else:
+                raise SolverError(f"contact zone reaches the candidate window{where} even at "
+                                  f"{K // 2 * self.d_mu * 1e3:.2f} mm")
+            if sol.gap.min() < -self.tol:
+                raise SolverError(f"penetration {-sol.gap.min() * 1e6:.3g} um{where} exceeds {self.tol * 1e6:.3g} um")
+            ft = sol.f * self.cosb  # share of the transverse line-of-action force
+            pf = np.array([ft[d["p"] == p].sum() for p in self.pair_range])
+            results.append(HelicalPositionResult(
+                theta=theta, torque=tq, ste=sol.delta / self.cosb, ste_kinematic=float(d["gap_t"].min()), force=Ft,
+                pair=d["p"], roll1=d["roll1"], force_c=sol.f, pressure=sol.f / (self.d_mu * self.d_lam),
+                pairs=self.pair_range.copy(), pair_force=pf, z=d["z"]))
+            self.last_state = (theta, mesh_index, K, d)  # candidates of the last solve (exports, checks)
+        return results
+
+    def _touches_outside(self, theta: float, mesh_index: int, K: int, only, d: dict, sol) -> bool:
+        """Whether a flank point up to ``2 K`` patches from its contact line, outside the solved window of
+        ``K``, could penetrate under the solution ``sol``: its gap after the approach ``sol.delta`` and the
+        FE (bending, body) displacement of its contact line (:meth:`line_compliance`, the same for every point
+        of a line) is below ``-tol``. The half-space near field, which only opens the gap, is left out, so the
+        screen is conservative; a non-convex gap (modified or deviating flanks) that rises past the window's
+        edge and falls again is what it catches."""
+        wide = self._fine(theta, mesh_index, 2 * K, only)
+        out = np.abs(wide["k"]) > K
+        if not out.any():
+            return False
+        lines = {(int(m), int(p)): n for n, (m, p) in enumerate(zip(wide["line_m"], wide["line_p"]))}
+        loaded = np.array([lines[(int(m), int(p))] for m, p in zip(d["line_m"], d["line_p"])])
+        f_line = np.bincount(d["li"], weights=sol.f, minlength=d["line_m"].size)
+        u_line = self.line_compliance(wide)[:, loaded] @ f_line
+        gap = wide["gap_t"][out] * self.cosb - sol.delta + u_line[wide["li"][out]]
+        return bool(gap.min() < -self.tol)
 
     def _contact(self, C: np.ndarray, h: np.ndarray, force: float, torque: float, where: str):
         """Active-set contact solve (:func:`gearrom.fe.contact.solve_contact`), warm-started with the

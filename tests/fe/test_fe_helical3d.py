@@ -168,6 +168,24 @@ def test_contact_pattern_and_no_fe_solve_for_new_micro(helical3d):
     assert other.c[0] is ltca.c[0] and other.c[1] is ltca.c[1]
 
 
+@pytest.mark.parametrize("slope,theta", [(44e-6, 0.1718), (-44e-6, 0.1841)])
+def test_contact_outside_the_candidate_window_is_found(helical3d, slope, theta):
+    """A 44 um helix slope at 300 N m: part of the contact lies 0.4 mm from the ideal contact lines, past
+    the default candidate window (0.18 mm), behind window-edge points that carry nothing (the gap rises
+    past the edge and falls again). Reference: the same model on a window wide enough to hold the whole
+    contact (0.96 mm); each torque's result is also the same whether it is solved alone or with others."""
+    pair, ltca, _ = helical3d
+    p = dataclasses.replace(pair, gears=(dataclasses.replace(pair.gears[0], micro=dataclasses.replace(
+        pair.gears[0].micro, enabled=True, helix_slope=slope)), pair.gears[1]))
+    torques = [30.0, 120.0, 300.0]
+    default = Helical3DLTCA(p, ltca.c).solve_many(theta, torques)
+    wide = Helical3DLTCA(p, ltca.c, half_window=0.96e-3).solve_many(theta, torques)
+    alone = Helical3DLTCA(p, ltca.c).solve(theta, 300.0)
+    assert [r.ste for r in default] == pytest.approx([r.ste for r in wide], abs=1e-12)
+    assert alone.ste == pytest.approx(default[-1].ste, abs=1e-12)
+    assert default[-1].ste - default[1].ste > 15e-6      # the case loads the far contact (not a trivial one)
+
+
 @pytest.fixture(scope="module")
 def loaded(helical3d):
     from gearrom.fe.loaded3d import LoadedPair3D
