@@ -5,6 +5,7 @@ the ROM differ by about 1e-6 relative between CPUs and BLAS builds, and a differ
 relative error or the phase of a small harmonic in degrees, carries that noise as an absolute one). Keys that depend on
 the machine, the time or the checkout (``cli_baseline.VOLATILE``) are not compared. ``validate_spur`` reads
 the stored explicit FE reference, which is data: its baseline is saved again when that record is replaced.
+A baseline saved again after a change of the physics is listed with the reason in ``baseline.json`` (``saved_again``).
 """
 from __future__ import annotations
 
