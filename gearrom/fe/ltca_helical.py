@@ -100,7 +100,8 @@ class Helical3DLTCA:
     d_mu : float
         Patch width across the contact line [m] (resolves the Hertz width, ~0.08 mm here).
     half_window : float
-        Candidates within this distance of the ideal contact line [m] (grows automatically).
+        Candidates within this distance of the ideal contact line [m] at the start of each torque's solve
+        (doubled while the contact reaches the window's edge or could lie past it, :meth:`_touches_outside`).
     tol : float
         Allowed penetration after the solve [m].
     window : float, optional
