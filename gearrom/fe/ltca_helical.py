@@ -273,18 +273,17 @@ class Helical3DLTCA:
                 if not d:
                     raise SolverError(f"contact not found{where}: no flank points of both gears lie near the "
                                       "contact lines")
-                windows[K] = (d, self.compliance_matrix(d, K))
+                windows[K] = (d, self.compliance_matrix(d, K), self._outside(theta, mesh_index, K, only, d))
             return windows[K]
 
         results = []
         for tq in torques:
             K = self.K
             for _ in range(4):
-                d, C = window(K)
+                d, C, outside = window(K)
                 Ft = tq / self.pair.rb[1]
                 sol = self._contact(C, d["gap_t"] * self.cosb, Ft / self.cosb, tq, where)
-                if not (np.any(sol.f[d["edge"]] > 1e-9 * Ft) or self._touches_outside(theta, mesh_index, K, only,
-                                                                                      d, sol)):
+                if not (np.any(sol.f[d["edge"]] > 1e-9 * Ft) or self._touches_outside(outside, d, sol)):
                     break
                 K *= 2
             else:
@@ -301,23 +300,30 @@ class Helical3DLTCA:
             self.last_state = (theta, mesh_index, K, d)  # candidates of the last solve (exports, checks)
         return results
 
-    def _touches_outside(self, theta: float, mesh_index: int, K: int, only, d: dict, sol) -> bool:
-        """Whether a flank point up to ``2 K`` patches from its contact line, outside the solved window of
-        ``K``, could penetrate under the solution ``sol``: its gap after the approach ``sol.delta`` and the
-        FE (bending, body) displacement of its contact line (:meth:`line_compliance`, the same for every point
-        of a line) is below ``-tol``. The half-space near field, which only opens the gap, is left out, so the
-        screen is conservative; a non-convex gap (modified or deviating flanks) that rises past the window's
-        edge and falls again is what it catches."""
+    def _outside(self, theta: float, mesh_index: int, K: int, only, d: dict):
+        """The flank points up to ``2 K`` patches from their contact lines, outside the window of ``K`` whose
+        candidates are ``d``: their normal gaps [m] and the FE compliance [m/N] of their contact lines to the
+        lines of ``d`` (:meth:`line_compliance`, the same for every point of a line); None when there are none.
+        It does not depend on the torque, so one window's screen serves every torque solved on it."""
         wide = self._fine(theta, mesh_index, 2 * K, only)
         out = np.abs(wide["k"]) > K
         if not out.any():
-            return False
+            return None
         lines = {(int(m), int(p)): n for n, (m, p) in enumerate(zip(wide["line_m"], wide["line_p"]))}
         loaded = np.array([lines[(int(m), int(p))] for m, p in zip(d["line_m"], d["line_p"])])
+        return wide["gap_t"][out] * self.cosb, self.line_compliance(wide)[np.ix_(wide["li"][out], loaded)]
+
+    def _touches_outside(self, outside, d: dict, sol) -> bool:
+        """Whether a point of :meth:`_outside` could penetrate under the solution ``sol``: its gap after the
+        approach ``sol.delta`` and the FE (bending, body) displacement of its contact line is below ``-tol``.
+        The half-space near field, which only opens the gap, is left out, so the screen is conservative; a
+        non-convex gap (modified or deviating flanks) that rises past the window's edge and falls again is what
+        it catches."""
+        if outside is None:
+            return False
+        gap, C_out = outside
         f_line = np.bincount(d["li"], weights=sol.f, minlength=d["line_m"].size)
-        u_line = self.line_compliance(wide)[:, loaded] @ f_line
-        gap = wide["gap_t"][out] * self.cosb - sol.delta + u_line[wide["li"][out]]
-        return bool(gap.min() < -self.tol)
+        return bool((gap - sol.delta + C_out @ f_line).min() < -self.tol)
 
     def _contact(self, C: np.ndarray, h: np.ndarray, force: float, torque: float, where: str):
         """Active-set contact solve (:func:`gearrom.fe.contact.solve_contact`), warm-started with the
