@@ -236,11 +236,12 @@ def _edge_closest(x, n, pa, pb):
 
 @njit(cache=True, fastmath=True)
 def facet_closest(x, segs, s, n):
-    """Closest point of bilinear facet ``s`` to node ``n``: (xi, eta, distance, inside_zone, edge).
+    """Closest point of bilinear facet ``s`` to node ``n``: (xi, eta, distance, inside_zone, beyond, xi_u, eta_u).
 
     Newton on the unconstrained projection; if it falls outside [-1, 1]^2 the closest point is on the
     border, whose four edges are straight segments (bilinear facet): the nearest of the four exact edge
-    projections is taken (``inside_zone`` False, ``edge`` 0..3 = eta=-1, xi=+1, eta=+1, xi=-1; -1 inside).
+    projections is taken (``inside_zone`` False). ``beyond``: the edges the unconstrained projection
+    (``xi_u``, ``eta_u``) lies beyond, bit ``e`` for edge ``e`` = 0..3 (eta=-1, xi=+1, eta=+1, xi=-1); 0 inside.
     """
     xi = 0.0
     eta = 0.0
@@ -260,14 +261,15 @@ def facet_closest(x, segs, s, n):
         if abs(dxi) + abs(deta) < 1e-10:
             break
     inside = abs(xi) <= 1.0 and abs(eta) <= 1.0
-    edge = -1
+    beyond = (1 if eta < -1.0 else 0) | (2 if xi > 1.0 else 0) | (4 if eta > 1.0 else 0) | (8 if xi < -1.0 else 0)
+    xi_u = xi
+    eta_u = eta
     if not inside:
         best = 1e300
         for e in range(4):
             t, d2 = _edge_closest(x, n, segs[s, e], segs[s, (e + 1) % 4])
             if d2 < best:
                 best = d2
-                edge = e
                 # edge e runs from local node e to node e+1 (counter-clockwise in (xi, eta))
                 if e == 0:
                     xi = -1.0 + 2.0 * t; eta = -1.0
@@ -279,84 +281,68 @@ def facet_closest(x, segs, s, n):
                     xi = -1.0; eta = 1.0 - 2.0 * t
     p0, p1, p2, a0, a1, a2, c0, c1, c2 = _facet_point(x, segs, s, xi, eta)
     r0 = x[n, 0] - p0; r1 = x[n, 1] - p1; r2 = x[n, 2] - p2
-    return xi, eta, math.sqrt(r0 * r0 + r1 * r1 + r2 * r2), inside, edge
+    return xi, eta, math.sqrt(r0 * r0 + r1 * r1 + r2 * r2), inside, beyond, xi_u, eta_u
 
 
 @njit(cache=True, fastmath=True)
-def _signed_gap_3d(x, segs, g_rad, seg_open, seg_sag, cand, ncand, i, n, lbs, order, cutoff=1e300):
-    """Nearest master feature of slave ``i`` (node ``n``) among its candidates.
+def _facet_gap(x, segs, g_rad, seg_open, seg_sag, s, n):
+    """Gap of node ``n`` to facet ``s`` alone, as the contact uses it.
 
-    Returns (facet or -1, xi, eta, signed gap (negative = penetration), contact normal, tangential overshoot,
-    its direction): the distance to the closest feature, negative on the body side of that facet; beyond an
-    open surface edge the normal distance to the facet plane while the tangential overshoot (m, in the facet
-    plane, away from the edge; 0 elsewhere) is below ``OPEN_TOL`` facet radii, and facet -1 farther out
-    (see :func:`contact_forces_3d`). The facet's sag (``seg_sag``, :func:`facet_sags`) is taken off the gap,
-    and the "normal" is the gradient of that gap with respect to the slave's position (unit without sag).
-
-    A bilinear facet lies in the convex hull of its corners, so its distance from the node is at least
-    (distance to the corners' centroid) - (largest corner distance from that centroid). Candidates are
-    taken in the order of that bound and those whose bound exceeds the best distance found are skipped
-    (no Newton projection); facet -1 is returned at once when every bound reaches ``cutoff`` (m).
-    ``lbs`` (float) and ``order`` (int64), at least ``ncand[i]`` long, are scratch.
+    Returns (within reach, xi, eta, signed gap (negative = penetration), contact normal, tangential overshoot,
+    its direction, inside zone, distance to the facet). The distance to the closest feature of the facet,
+    negative on the body side; beyond an open surface edge the normal distance to the facet plane while the
+    tangential overshoot (m, in the facet plane, away from the edge; 0 elsewhere) is below ``OPEN_TOL`` facet
+    radii, and "not within reach" farther out (see :func:`contact_forces_3d`). The facet's sag (``seg_sag``,
+    :func:`facet_sags`) is taken off the gap, and the "normal" is the gradient of that gap with respect to the
+    slave's position (unit without sag).
     """
-    K = ncand[i]
-    lbmin = 1e300
-    for m in range(K):
-        s = cand[i, m]
-        c0 = 0.0; c1 = 0.0; c2 = 0.0
-        for q in range(4):
-            nd = segs[s, q]
-            c0 += x[nd, 0]; c1 += x[nd, 1]; c2 += x[nd, 2]
-        c0 *= 0.25; c1 *= 0.25; c2 *= 0.25
-        rad2 = 0.0
-        for q in range(4):
-            nd = segs[s, q]
-            e0 = x[nd, 0] - c0; e1 = x[nd, 1] - c1; e2 = x[nd, 2] - c2
-            rad2 = max(rad2, e0 * e0 + e1 * e1 + e2 * e2)
-        d0 = x[n, 0] - c0; d1 = x[n, 1] - c1; d2 = x[n, 2] - c2
-        lb = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2) - math.sqrt(rad2)
-        # insertion into the sorted order (K is small)
-        j = m
-        while j > 0 and lbs[j - 1] > lb:
-            lbs[j] = lbs[j - 1]; order[j] = order[j - 1]
-            j -= 1
-        lbs[j] = lb; order[j] = m
-        lbmin = min(lbmin, lb)
-    if K == 0 or lbmin >= cutoff:
-        return -1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-    best = -1
-    bd = 0.0
-    bin_ = False
-    bxi = 0.0; beta = 0.0
-    bedge = -1
-    for r in range(K):
-        if best >= 0 and lbs[r] > bd * (1 + 1e-12):
-            break                    # every remaining facet is farther than the best one
-        s = cand[i, order[r]]
-        xi, eta, d, inside, edge = facet_closest(x, segs, s, n)
-        if best < 0 or d < bd * (1 - 1e-12) or (d <= bd * (1 + 1e-12) and inside and not bin_):
-            best = s; bd = d; bin_ = inside; bxi = xi; beta = eta; bedge = edge
-    if best < 0:
-        return -1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-    p0, p1, p2, a0, a1, a2, c0, c1, c2 = _facet_point(x, segs, best, bxi, beta)
+    bxi, beta, bd, bin_, beyond, xi_u, eta_u = facet_closest(x, segs, s, n)
+    p0, p1, p2, a0, a1, a2, c0, c1, c2 = _facet_point(x, segs, s, bxi, beta)
     n0 = a1 * c2 - a2 * c1; n1 = a2 * c0 - a0 * c2; n2 = a0 * c1 - a1 * c0
     nl = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
     n0 /= nl; n1 /= nl; n2 /= nl
     r0 = x[n, 0] - p0; r1 = x[n, 1] - p1; r2 = x[n, 2] - p2
     rn = r0 * n0 + r1 * n1 + r2 * n2
-    open_edge = False
-    if not bin_:
-        mask = seg_open[best]
-        if abs(bxi) == 1.0 and abs(beta) == 1.0:      # a corner: the two edges that meet there
-            q = (0 if bxi < 0 else 1) if beta < 0 else (2 if bxi > 0 else 3)
-            open_edge = ((mask >> q) & 1) == 1 or ((mask >> ((q + 3) % 4)) & 1) == 1
+    # beyond open surface edges only: the facet's plane extended (see the strip below)
+    shared = beyond & ~seg_open[s]
+    open_edge = (not bin_) and shared == 0
+    if not bin_ and shared != 0 and (beyond & seg_open[s]) != 0 and (shared & (shared - 1)) == 0:
+        # beyond one shared edge and the open edge next to it: the line of the shared edge, extended past the
+        # surface edge (where the strips of this facet and its neighbour across that edge end: each strip's
+        # plane contains the line, so their gaps are the line's distance on the strip borders)
+        e = 0
+        while (shared >> e) & 1 == 0:
+            e += 1
+        if (seg_open[s] >> ((e + 3) % 4)) & 1 and (beyond >> ((e + 3) % 4)) & 1:
+            kc, ko = e, (e + 1) % 4                     # the open edge before e meets it at e's first node
         else:
-            open_edge = ((mask >> bedge) & 1) == 1
+            kc, ko = (e + 1) % 4, e
+        c = segs[s, kc]
+        o = segs[s, ko]
+        l0 = x[c, 0] - x[o, 0]; l1 = x[c, 1] - x[o, 1]; l2 = x[c, 2] - x[o, 2]
+        ll = math.sqrt(l0 * l0 + l1 * l1 + l2 * l2)
+        l0 /= ll; l1 /= ll; l2 /= ll
+        r0 = x[n, 0] - x[c, 0]; r1 = x[n, 1] - x[c, 1]; r2 = x[n, 2] - x[c, 2]
+        ovl = r0 * l0 + r1 * l1 + r2 * l2             # along the line, past the corner
+        tol = OPEN_TOL * g_rad[s]
+        if ovl >= tol:
+            return False, bxi, beta, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, bin_, bd
+        p0 = r0 - ovl * l0; p1 = r1 - ovl * l1; p2 = r2 - ovl * l2
+        dl = math.sqrt(p0 * p0 + p1 * p1 + p2 * p2)
+        cxi = -1.0 if kc == 0 or kc == 3 else 1.0
+        ceta = -1.0 if kc < 2 else 1.0
+        sgn = -1.0 if rn < 0.0 else 1.0
+        if dl <= 1e-12 * ll:
+            return True, cxi, ceta, 0.0, n0, n1, n2, max(ovl, 0.0), 0.0, 0.0, 0.0, bin_, bd
+        if ovl > 0.0:
+            return (True, cxi, ceta, sgn * dl, sgn * p0 / dl, sgn * p1 / dl, sgn * p2 / dl, ovl, l0, l1, l2,
+                    bin_, bd)
+        return True, cxi, ceta, sgn * dl, sgn * p0 / dl, sgn * p1 / dl, sgn * p2 / dl, 0.0, 0.0, 0.0, 0.0, bin_, bd
     # the surface between the facet's corners bulges out of the bilinear facet by the sag
     # s = sa (1 - xi^2) + sb (1 - eta^2) (:func:`facet_sags`); its gradient with respect to the slave
     # follows the free projection coordinates (dual basis of the facet tangents), a clamped one is fixed
-    sa = seg_sag[best, 0]
-    sb = seg_sag[best, 1]
+    sa = seg_sag[s, 0]
+    sb = seg_sag[s, 1]
     sg = sa * (1.0 - bxi * bxi) + sb * (1.0 - beta * beta)
     q0 = 0.0; q1 = 0.0; q2 = 0.0
     if sa != 0.0 or sb != 0.0:
@@ -382,21 +368,122 @@ def _signed_gap_3d(x, segs, g_rad, seg_open, seg_sag, cand, ncand, i, n, lbs, or
             wc = 0.0
         q0 = wa * a0 + wc * c0; q1 = wa * a1 + wc * c1; q2 = wa * a2 + wc * c2
     if open_edge:
-        tol = OPEN_TOL * g_rad[best]
-        ov = math.sqrt(max(bd * bd - rn * rn, 0.0))
+        # the overshoot: how far the projection lies past the open edges, along the facet's parametric
+        # directions (at a shared edge, the neighbour measures the same along that edge); its gradient with
+        # respect to the slave through the dual basis of the facet tangents
+        tol = OPEN_TOL * g_rad[s]
+        la = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
+        lc = math.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
+        oa = 0.0
+        oc = 0.0
+        sa_ = 0.0
+        sc_ = 0.0
+        if beyond & 2:
+            oa = (xi_u - 1.0) * la; sa_ = la
+        elif beyond & 8:
+            oa = (-1.0 - xi_u) * la; sa_ = -la
+        if beyond & 4:
+            oc = (eta_u - 1.0) * lc; sc_ = lc
+        elif beyond & 1:
+            oc = (-1.0 - eta_u) * lc; sc_ = -lc
+        ov = math.sqrt(oa * oa + oc * oc)
         if ov >= tol:
-            return -1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0     # beyond the edge of the master surface
+            return False, bxi, beta, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, bin_, bd   # beyond the surface edge
         if ov > 1e-12 * tol:
-            t0 = (r0 - rn * n0) / ov; t1 = (r1 - rn * n1) / ov; t2 = (r2 - rn * n2) / ov
+            g11 = la * la
+            g22 = lc * lc
+            g12 = a0 * c0 + a1 * c1 + a2 * c2
+            det = g11 * g22 - g12 * g12
+            wa = oa / ov * sa_
+            wc = oc / ov * sc_
+            # d xi_u / dx = (g22 a - g12 c) / det, d eta_u / dx = (g11 c - g12 a) / det
+            ka = (wa * g22 - wc * g12) / det
+            kc_ = (wc * g11 - wa * g12) / det
+            t0 = ka * a0 + kc_ * c0; t1 = ka * a1 + kc_ * c1; t2 = ka * a2 + kc_ * c2
         else:
             t0 = 0.0; t1 = 0.0; t2 = 0.0
-        return best, bxi, beta, rn - sg, n0 - q0, n1 - q1, n2 - q2, ov, t0, t1, t2
+        return True, bxi, beta, rn - sg, n0 - q0, n1 - q1, n2 - q2, ov, t0, t1, t2, bin_, bd
     if bin_ or bd <= 1e-9 * math.sqrt(nl):
-        return best, bxi, beta, (-bd if rn < 0.0 else bd) - sg, n0 - q0, n1 - q1, n2 - q2, 0.0, 0.0, 0.0, 0.0
+        return (True, bxi, beta, (-bd if rn < 0.0 else bd) - sg, n0 - q0, n1 - q1, n2 - q2, 0.0, 0.0, 0.0, 0.0,
+                bin_, bd)
     # border zones (beyond a shared edge or corner): the distance to the closest point, signed by the side
     sgn = -1.0 if rn < 0.0 else 1.0
-    return (best, bxi, beta, sgn * bd - sg, sgn * r0 / bd - q0, sgn * r1 / bd - q1, sgn * r2 / bd - q2,
-            0.0, 0.0, 0.0, 0.0)
+    return (True, bxi, beta, sgn * bd - sg, sgn * r0 / bd - q0, sgn * r1 / bd - q1, sgn * r2 / bd - q2,
+            0.0, 0.0, 0.0, 0.0, bin_, bd)
+
+
+@njit(cache=True, fastmath=True)
+def _signed_gap_3d(x, segs, g_rad, seg_open, seg_sag, cand, ncand, i, n, lbs, order, cutoff=1e300):
+    """Nearest master feature of slave ``i`` (node ``n``) among its candidates.
+
+    Returns (facet or -1, xi, eta, signed gap (negative = penetration), contact normal, tangential overshoot,
+    its direction), see :func:`_facet_gap`. The facet is the one whose own gap is the smallest in magnitude,
+    so that the gap is continuous where the choice passes from one facet to another (equal gaps there).
+    Choosing by the distance instead breaks beyond an open surface edge, where the distance includes the
+    tangential overshoot but the gap is the normal distance to the facet plane: at a crease of the master
+    surface (a tip rounding meeting the flank) near its end face, the overshoots of the two facets decide the
+    choice and the gap jumps between the two planes' distances. A node whose nearest facet (by distance) has
+    it beyond the surface edge is not in contact (a farther facet would see it through its border zone, as
+    deep as its distance to that facet's edge).
+
+    A bilinear facet lies in the convex hull of its corners, so its distance from the node is at least
+    (distance to the corners' centroid) - (largest corner distance from that centroid); a facet's gap is at
+    least that bound less its reach beyond open edges and its sags. Candidates are taken in the order of the
+    bound and the rest skipped once it exceeds both the nearest distance and the smallest gap found (with
+    that slack); facet -1 is returned at once when every bound reaches ``cutoff`` (m). ``lbs`` (float) and
+    ``order`` (int64), at least ``ncand[i]`` long, are scratch.
+    """
+    K = ncand[i]
+    lbmin = 1e300
+    slack = 0.0
+    for m in range(K):
+        s = cand[i, m]
+        c0 = 0.0; c1 = 0.0; c2 = 0.0
+        for q in range(4):
+            nd = segs[s, q]
+            c0 += x[nd, 0]; c1 += x[nd, 1]; c2 += x[nd, 2]
+        c0 *= 0.25; c1 *= 0.25; c2 *= 0.25
+        rad2 = 0.0
+        for q in range(4):
+            nd = segs[s, q]
+            e0 = x[nd, 0] - c0; e1 = x[nd, 1] - c1; e2 = x[nd, 2] - c2
+            rad2 = max(rad2, e0 * e0 + e1 * e1 + e2 * e2)
+        d0 = x[n, 0] - c0; d1 = x[n, 1] - c1; d2 = x[n, 2] - c2
+        lb = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2) - math.sqrt(rad2)
+        slack = max(slack, OPEN_TOL * g_rad[s] + abs(seg_sag[s, 0]) + abs(seg_sag[s, 1]))
+        # insertion into the sorted order (K is small)
+        j = m
+        while j > 0 and lbs[j - 1] > lb:
+            lbs[j] = lbs[j - 1]; order[j] = order[j - 1]
+            j -= 1
+        lbs[j] = lb; order[j] = m
+        lbmin = min(lbmin, lb)
+    if K == 0 or lbmin >= cutoff:
+        return -1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    near = -1
+    near_d = 0.0
+    near_in = False
+    near_ok = False
+    best = -1
+    bm = 0.0
+    bin_ = False
+    bxi = 0.0; beta = 0.0; bg = 0.0; bn0 = 0.0; bn1 = 0.0; bn2 = 0.0; bov = 0.0; bt0 = 0.0; bt1 = 0.0; bt2 = 0.0
+    for r in range(K):
+        if near >= 0 and lbs[r] > near_d * (1 + 1e-12) and (best < 0 or lbs[r] - slack > bm):
+            break                    # every remaining facet is farther, and its gap larger
+        s = cand[i, order[r]]
+        ok, xi, eta, g, g0, g1, g2, ov, t0, t1, t2, inside, d = _facet_gap(x, segs, g_rad, seg_open, seg_sag, s, n)
+        if near < 0 or d < near_d * (1 - 1e-12) or (d <= near_d * (1 + 1e-12) and inside and not near_in):
+            near = s; near_d = d; near_in = inside; near_ok = ok
+        if not ok:
+            continue
+        m = abs(g)
+        if best < 0 or m < bm * (1 - 1e-12) or (m <= bm * (1 + 1e-12) and inside and not bin_):
+            best = s; bm = m; bin_ = inside; bxi = xi; beta = eta; bg = g
+            bn0 = g0; bn1 = g1; bn2 = g2; bov = ov; bt0 = t0; bt1 = t1; bt2 = t2
+    if best < 0 or not near_ok:
+        return -1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    return best, bxi, beta, bg, bn0, bn1, bn2, bov, bt0, bt1, bt2
 
 
 @njit(cache=True)
@@ -404,7 +491,7 @@ def nearest_facets_3d(x, slaves, segs, g_rad, cand, ncand, seg_open, seg_sag):
     """Nearest master feature of every slave as the 3D contact sees it: facet (-1: none), (xi, eta) on it,
     signed gap [m] (negative = penetration), contact normal (from the master towards the slave: the gap's
     gradient, unit on a facet without sag),
-    tangential overshoot beyond an open edge [m] (0 elsewhere) and its unit direction."""
+    tangential overshoot beyond an open edge [m] (0 elsewhere) and its gradient with respect to the slave."""
     ns = slaves.shape[0]
     K = cand.shape[1]
     lbs = np.empty(K)
