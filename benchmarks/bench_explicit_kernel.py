@@ -166,7 +166,7 @@ def _reference_model():
     from run_ringdown import REFERENCE_MESH_HELICAL as mesh, reference_meshes, reference_setup
 
     from gearrom.config import load_config
-    from gearrom.fe.explicit.gearpair import loaded_model, stored_start_state
+    from gearrom.fe.explicit.gearpair import loaded_model, start_state_key, stored_start_state
     from gearrom.fe.explicit.helicalpair import helical_pair_model
 
     with warnings.catch_warnings():
@@ -178,9 +178,11 @@ def _reference_model():
     model, info = helical_pair_model(pair, reference_meshes(pair, mesh), setup, mesh["n_layers"])
 
     def missing():
-        raise SystemExit(f"{state_file}.loaded.npz (the reference's loaded static state) is missing")
+        raise SystemExit(f"{state_file}.loaded.npz (the reference's loaded static state of this model and contact "
+                         "rule) is missing")
 
-    state = stored_start_state(state_file, ".loaded.npz", "te", model.nodes.shape, 120.0, missing)
+    state = stored_start_state(state_file, ".loaded.npz", "te", model.nodes.shape, 120.0, missing,
+                               key=start_state_key(model))
     model = loaded_model(model, info, setup, (state[0], state[1], 0.0))
     return model, prepare(model, 0.9, mesh["max_candidates"])
 

@@ -126,8 +126,9 @@ def _seed_loaded_state(checkpoint: Path, cal: dict) -> None:
 
     The direct static solve depends on the model's mesh, contact and output torque only (not on the speed
     or the damping), and the ring-down solved the same model at the same 120 N m: its stored state saves a
-    solve of about a quarter of an hour and 10 GB. The run's own check (displacement shape and torque,
-    :func:`gearrom.fe.explicit.gearpair.stored_start_state`) still applies.
+    solve of about a quarter of an hour and 10 GB. The run's own check (displacement shape, torque, and the
+    model and contact rule the state was solved for, :func:`gearrom.fe.explicit.gearpair.stored_start_state`)
+    still applies: a state of another contact rule is solved again.
     """
     target = Path(str(checkpoint) + ".loaded.npz")
     alpha = cal["runs"][0]["alpha_r_per_s"]
@@ -140,7 +141,8 @@ def _seed_loaded_state(checkpoint: Path, cal: dict) -> None:
         if "value" not in z or float(z["value"]) == 0.0:
             return                      # a ring-down state without its TE
         with atomic_path(target) as tmp:
-            np.savez(tmp, u=z["u"], theta=z["theta"], torque=z["torque"], te=z["value"])
+            np.savez(tmp, u=z["u"], theta=z["theta"], torque=z["torque"], te=z["value"],
+                     key=z["key"] if "key" in z else np.array(""))
     log.info("loaded start taken from the ring-down's static solve (%s)", source.name)
 
 

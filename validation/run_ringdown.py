@@ -35,7 +35,8 @@ from gearrom.fe.explicit.driver import fingerprint, solve
 from gearrom.fe.explicit.gearmesh import gear_quad_mesh
 from gearrom.fe.explicit.driver import prepare
 from gearrom.fe.explicit.gearpair import (GearPairSetup, gear_pair_model, loaded_model, relaxed_state,
-                                          stored_meshes, stored_start_state, transmission_error)
+                                          stored_meshes, start_state_key, stored_start_state,
+                                          transmission_error)
 from gearrom.fe.explicit.helicalpair import helical_meshes, helical_pair_model
 
 HERE = Path(__file__).resolve().parent
@@ -182,7 +183,7 @@ def ringdown(pair, meshes, alpha: float, duration: float, relaxed=None, torque0:
     checkpoint = CHECKPOINTS / f"ringdown_{kind}alpha{alpha:.10g}.ckpt.npz"
     if relaxed is None:
         relaxed = stored_start_state(checkpoint, ".loaded.npz", "value", model.nodes.shape, torque0,
-                                     lambda: loaded_state(pair, model, info, torque0))
+                                     lambda: loaded_state(pair, model, info, torque0), key=start_state_key(model))
     run = loaded_model(model, info, setup, relaxed)
     # a finished run keeps its record and fit beside the checkpoint (<name>.done.npz, a few kB): a calibration
     # continued on another machine needs neither the run's checkpoint nor its steps again

@@ -142,3 +142,32 @@ def test_checkpoint_of_the_earlier_format_resumes_its_own_run(tmp_path):
     resumed = solve(model, 4e-3, checkpoint=ck, **kw)
     for name in ("t", "theta", "energies"):
         assert np.array_equal(getattr(whole, name), getattr(resumed, name)), name
+
+
+def test_stored_start_state_follows_the_model_and_contact_rule(tmp_path, monkeypatch):
+    """A static start state stored beside a checkpoint is reused for the same model (mesh and placement) and
+    contact rule only: a state solved with another contact rule or placement is solved again, not taken as
+    the start of a new run (the helical references restart from a fresh static solve after a contact fix)."""
+    from types import SimpleNamespace
+
+    from gearrom.fe.explicit import contact
+    from gearrom.fe.explicit.gearpair import start_state_key, stored_start_state
+
+    model = SimpleNamespace(nodes=np.zeros((4, 3)), elements=np.zeros((1, 8), np.int64))
+    calls = []
+
+    def compute():
+        calls.append(1)
+        return np.full((4, 3), float(len(calls))), np.zeros(2), float(len(calls))
+
+    ck = tmp_path / "run.ckpt.npz"
+
+    def state(m):
+        return stored_start_state(ck, ".loaded.npz", "te", (4, 3), 120.0, compute, key=start_state_key(m))
+
+    assert state(model)[2] == 1.0 and state(model)[2] == 1.0 and len(calls) == 1
+    monkeypatch.setitem(contact.CONTACT_REVISION, 3, "3d-other")
+    assert state(model)[2] == 2.0 and len(calls) == 2
+    moved = SimpleNamespace(nodes=model.nodes + 1e-12, elements=model.elements)
+    assert state(moved)[2] == 3.0 and len(calls) == 3
+    assert state(moved)[2] == 3.0 and len(calls) == 3

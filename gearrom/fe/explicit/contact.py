@@ -27,6 +27,9 @@ from numba import njit
 #: a projection may fall this fraction of the segment length beyond its ends (so that a slave node
 #: sitting exactly on a master corner node does not flicker in and out of contact)
 SEG_TOL = 0.02
+#: revision of the contact rule per dimension (2: node to edge, 3: node to facet): a stored static start state
+#: (:func:`gearrom.fe.explicit.gearpair.stored_start_state`) is reused only with the rule it was solved with
+CONTACT_REVISION = {2: "2d-1", 3: "3d-2"}
 #: 3D: a node may lie this fraction of the facet radius beyond an edge of the master surface (see
 #: :func:`contact_forces_3d`) and still take the facet plane as its contact surface
 OPEN_TOL = 0.05

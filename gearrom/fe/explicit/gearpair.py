@@ -37,7 +37,7 @@ from gearrom.fe.explicit.result import ExplicitResult
 log = logging.getLogger(__name__)
 
 __all__ = ["GearPairSetup", "gear_pair_model", "loaded_model", "relaxed_state", "run_gear_pair", "stored_meshes",
-           "stored_start_state", "transmission_error", "triangles_to_quads"]
+           "start_state_key", "stored_start_state", "transmission_error", "triangles_to_quads"]
 
 
 def triangles_to_quads(points: np.ndarray, triangles: np.ndarray):
@@ -362,24 +362,41 @@ def polar_inertias(model: ExplicitModel, mass: np.ndarray, off: int) -> tuple[fl
     return j1 + float(model.references[0].inertia), j2 + float(model.references[1].inertia)
 
 
-def stored_start_state(checkpoint, suffix: str, value_key: str, shape, torque: float, compute):
+def start_state_key(model) -> str:
+    """What a stored start state was solved for: the model's mesh and placement (nodes, elements) and the
+    revision of the contact rule of its dimension (:data:`gearrom.fe.explicit.contact.CONTACT_REVISION`)."""
+    import hashlib
+
+    from gearrom.fe.explicit.contact import CONTACT_REVISION
+
+    h = hashlib.sha1()
+    for a in (np.ascontiguousarray(model.nodes, float), np.ascontiguousarray(model.elements, np.int64)):
+        h.update(str(a.shape).encode())
+        h.update(a.tobytes())
+    h.update(CONTACT_REVISION[model.nodes.shape[1]].encode())
+    return h.hexdigest()
+
+
+def stored_start_state(checkpoint, suffix: str, value_key: str, shape, torque: float, compute, key: str = ""):
     """A run's start state ``(u, theta, value)``, kept next to its checkpoint as ``<checkpoint><suffix>``.
 
-    A stored state is reused when its displacement shape and torque match the run; otherwise
-    ``compute()`` makes it and, with a checkpoint, it is stored (atomically; ``value`` under
-    ``value_key``).
+    A stored state is reused when its displacement shape, torque and ``key`` (:func:`start_state_key`: the
+    model and contact rule it was solved with) match the run; otherwise ``compute()`` makes it and, with a
+    checkpoint, it is stored (atomically; ``value`` under ``value_key``).
     """
     store = None if checkpoint is None else Path(str(checkpoint) + suffix)
     if store is not None and store.is_file():
         with np.load(store) as z:
-            if z["u"].shape == shape and float(z["torque"]) == torque:
+            stored_key = str(z["key"]) if "key" in z else ""
+            if z["u"].shape == shape and float(z["torque"]) == torque and stored_key == key:
                 return z["u"].copy(), z["theta"].copy(), float(z[value_key])
+        log.info("%s was solved for another model or contact rule: solved again", store)
     state = compute()
     if store is not None:
         from gearrom.fe.cache import atomic_path
 
         with atomic_path(store) as tmp:
-            np.savez(tmp, u=state[0], theta=state[1], torque=torque, **{value_key: state[2]})
+            np.savez(tmp, u=state[0], theta=state[1], torque=torque, key=np.array(key), **{value_key: state[2]})
     return state
 
 
@@ -424,7 +441,8 @@ def run_gear_pair(pair, meshes, setup: GearPairSetup, t_end: float, sample_perio
     model, info = gear_pair_model(pair, meshes, setup)
     if setup.start == "loaded":
         relaxed = stored_start_state(solve_kw.get("checkpoint"), ".relaxed.npz", "ptp", model.nodes.shape,
-                                     setup.torque_out, lambda: relaxed_state(model, setup.torque_out))
+                                     setup.torque_out, lambda: relaxed_state(model, setup.torque_out),
+                                     key=start_state_key(model))
         log.info("loaded start: static TE %.3f um, residual %.2e rad",
                  (info["rb"][0] * relaxed[1][0] + info["rb"][1] * (relaxed[1][1] - info["clearance_angle"])) * 1e6,
                  relaxed[2])

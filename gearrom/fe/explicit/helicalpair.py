@@ -506,11 +506,12 @@ def run_helical_pair(pair, meshes, setup: GearPairSetup, t_end: float, sample_pe
     run_angle = setup.rpm_in * 2 * math.pi / 60 * t_end if sector else None
     model, info = helical_pair_model(pair, meshes, setup, n_layers, run_angle=run_angle, stagger=stagger)
     if setup.start == "loaded":
-        from gearrom.fe.explicit.gearpair import loaded_model, stored_start_state
+        from gearrom.fe.explicit.gearpair import loaded_model, start_state_key, stored_start_state
         from gearrom.fe.explicit.static3d import StaticPair3D
 
         state = stored_start_state(solve_kw.get("checkpoint"), ".loaded.npz", "te", model.nodes.shape, setup.torque_out,
-                                   lambda: StaticPair3D(model, info, pair).loaded_state(setup.torque_out))
+                                   lambda: StaticPair3D(model, info, pair).loaded_state(setup.torque_out),
+                                   key=start_state_key(model))
         log.info("loaded start: static TE %.3f um (direct static solve)", state[2] * 1e6)
         model = loaded_model(model, info, setup, (state[0], state[1], 0.0))
         info = dict(info, loaded_te_m=state[2])
