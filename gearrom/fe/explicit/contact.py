@@ -12,8 +12,10 @@ the gradient of a continuous potential and creates no energy (an earlier rule, t
 among edges with the projection inside, took a node lying just outside a tooth tip land as deep inside
 the flank and kicked it: 0.4 J out of nothing per event). For 0 < -g <= capture depth the slave gets
 f = k (-g) n (n the outward master normal, or the direction to the master corner in a vertex zone), the
-master nodes get -f times their shape functions at the projection. 3D: the facet with the projection
-inside (up to ``SEG_TOL``) and the smallest penetration. Coulomb friction is regularized by the slip
+master nodes get -f times their shape functions at the projection. 3D: among a slave's candidate
+facets, the one whose own gap (:func:`_facet_gap`: distance, or beyond an open surface edge the distance
+to the facet's extended plane) is the smallest in magnitude, so that the gap is continuous where the
+choice changes. Coulomb friction is regularized by the slip
 velocity: f_t = -mu f_n v_t / sqrt(|v_t|^2 + v_reg^2). The penalty energy k g^2 / 2 and the friction
 power are returned for the energy balance.
 """
@@ -716,8 +718,9 @@ def contact_forces_3d(x, v, slaves, s_pair, segs, g_k, g_rad, cand, ncand, p_mu,
     master surface (no neighbouring facet): beyond such an edge the closest feature is the edge itself,
     and the distance to it changes sign with the side of the facet plane only through zero when the
     node passes the edge exactly in that plane. A node just beyond it (tangential overshoot up to
-    ``OPEN_TOL`` of the facet radius) therefore takes the normal distance to the facet plane at the edge
-    (continuous with the inside zone), with its penalty energy faded to zero over that reach
+    ``OPEN_TOL`` of the facet radius, measured along the facet's parametric directions, as its neighbour
+    across a shared edge measures it along that edge) therefore takes the normal distance to the facet
+    plane (continuous with the inside zone), with its penalty energy faded to zero over that reach
     (:func:`edge_fade`; the force is the energy's gradient, so it has a tangential part pushing the node
     off the edge); farther out it is not in contact. A loaded node sliding off a cut flank end thus
     unloads continuously instead of dropping its energy ``k g^2 / 2`` at the reach. Without that rule a node
