@@ -13,9 +13,10 @@ among edges with the projection inside, took a node lying just outside a tooth t
 the flank and kicked it: 0.4 J out of nothing per event). For 0 < -g <= capture depth the slave gets
 f = k (-g) n (n the outward master normal, or the direction to the master corner in a vertex zone), the
 master nodes get -f times their shape functions at the projection. 3D: among a slave's candidate
-facets, the one whose own gap (:func:`_facet_gap`: distance, or beyond an open surface edge the distance
-to the facet's extended plane) is the smallest in magnitude, so that the gap is continuous where the
-choice changes. Coulomb friction is regularized by the slip
+facets that have it inside or in their strip beyond an open surface edge, the one whose own gap
+(:func:`_facet_gap`: distance to the facet's surface, beyond an open edge to its extended plane) is the
+smallest in magnitude, so that the gap is continuous where the choice changes; above a convex edge, where
+no facet has it inside, the nearest border zone (:func:`_signed_gap_3d`). Coulomb friction is regularized by the slip
 velocity: f_t = -mu f_n v_t / sqrt(|v_t|^2 + v_reg^2). The penalty energy k g^2 / 2 and the friction
 power are returned for the energy balance.
 """
@@ -31,7 +32,7 @@ from numba import njit
 SEG_TOL = 0.02
 #: revision of the contact rule per dimension (2: node to edge, 3: node to facet): a stored static start state
 #: (:func:`gearrom.fe.explicit.gearpair.stored_start_state`) is reused only with the rule it was solved with
-CONTACT_REVISION = {2: "2d-1", 3: "3d-2"}
+CONTACT_REVISION = {2: "2d-1", 3: "3d-3"}
 #: 3D: a node may lie this fraction of the facet radius beyond an edge of the master surface (see
 #: :func:`contact_forces_3d`) and still take the facet plane as its contact surface
 OPEN_TOL = 0.05
@@ -289,17 +290,49 @@ def facet_closest(x, segs, s, n):
     return xi, eta, math.sqrt(r0 * r0 + r1 * r1 + r2 * r2), inside, beyond, xi_u, eta_u
 
 
+@njit(cache=True, fastmath=True, inline="always")
+def _dual_gradient(a0, a1, a2, c0, c1, c2, wxi, weta, free_xi, free_eta):
+    """Gradient with respect to the slave of ``wxi xi + weta eta`` (facet tangents ``a = dx/dxi``,
+    ``c = dx/deta``): the free projection coordinates follow the slave through the dual basis of the
+    tangents, a clamped one is fixed."""
+    g11 = a0 * a0 + a1 * a1 + a2 * a2
+    g22 = c0 * c0 + c1 * c1 + c2 * c2
+    g12 = a0 * c0 + a1 * c1 + a2 * c2
+    if free_xi and free_eta:
+        det = g11 * g22 - g12 * g12
+        ka = (wxi * g22 - weta * g12) / det
+        kc = (weta * g11 - wxi * g12) / det
+    elif free_xi:
+        ka = wxi / g11
+        kc = 0.0
+    elif free_eta:
+        ka = 0.0
+        kc = weta / g22
+    else:
+        return 0.0, 0.0, 0.0
+    return ka * a0 + kc * c0, ka * a1 + kc * c1, ka * a2 + kc * c2
+
+
+#: zones of a node relative to one facet (:func:`_facet_gap`): its projection inside the facet, beyond open
+#: surface edges only (the strip: the facet plane extended), or beyond a shared edge or corner (the border:
+#: distance to the closest border point, or to the shared edge's line past the surface edge)
+ZONE_INSIDE, ZONE_STRIP, ZONE_BORDER = 0, 1, 2
+
+
 @njit(cache=True, fastmath=True)
 def _facet_gap(x, segs, g_rad, seg_open, seg_sag, s, n):
     """Gap of node ``n`` to facet ``s`` alone, as the contact uses it.
 
     Returns (within reach, xi, eta, signed gap (negative = penetration), contact normal, tangential overshoot,
-    its direction, inside zone, distance to the facet). The distance to the closest feature of the facet,
-    negative on the body side; beyond an open surface edge the normal distance to the facet plane while the
-    tangential overshoot (m, in the facet plane, away from the edge; 0 elsewhere) is below ``OPEN_TOL`` facet
-    radii, and "not within reach" farther out (see :func:`contact_forces_3d`). The facet's sag (``seg_sag``,
-    :func:`facet_sags`) is taken off the gap, and the "normal" is the gradient of that gap with respect to the
-    slave's position (unit without sag).
+    overshoot gradient, zone, distance to the facet). Inside the facet (``ZONE_INSIDE``) the signed
+    distance; beyond open surface edges only (``ZONE_STRIP``) the normal distance to the facet plane while
+    the overshoot (m; how far the projection lies past the open edges, measured along the facet's
+    parametric directions) is below ``OPEN_TOL`` facet radii, "not within reach" farther out (see
+    :func:`contact_forces_3d`); beyond a shared edge or corner (``ZONE_BORDER``) the distance to the
+    closest border point signed by the side of the facet plane, or beyond a shared edge and an open edge
+    the distance to the shared edge's line (up to the same reach past the surface edge). The facet's sag
+    (``seg_sag``, :func:`facet_sags`) is taken off the gap, and the normal is the gradient of that gap with
+    respect to the slave's position (unit without sag).
     """
     bxi, beta, bd, bin_, beyond, xi_u, eta_u = facet_closest(x, segs, s, n)
     p0, p1, p2, a0, a1, a2, c0, c1, c2 = _facet_point(x, segs, s, bxi, beta)
@@ -308,9 +341,9 @@ def _facet_gap(x, segs, g_rad, seg_open, seg_sag, s, n):
     n0 /= nl; n1 /= nl; n2 /= nl
     r0 = x[n, 0] - p0; r1 = x[n, 1] - p1; r2 = x[n, 2] - p2
     rn = r0 * n0 + r1 * n1 + r2 * n2
-    # beyond open surface edges only: the facet's plane extended (see the strip below)
+    sgn = -1.0 if rn < 0.0 else 1.0
+    tol = OPEN_TOL * g_rad[s]
     shared = beyond & ~seg_open[s]
-    open_edge = (not bin_) and shared == 0
     if not bin_ and shared != 0 and (beyond & seg_open[s]) != 0 and (shared & (shared - 1)) == 0:
         # beyond one shared edge and the open edge next to it: the line of the shared edge, extended past the
         # surface edge (where the strips of this facet and its neighbour across that edge end: each strip's
@@ -329,114 +362,85 @@ def _facet_gap(x, segs, g_rad, seg_open, seg_sag, s, n):
         l0 /= ll; l1 /= ll; l2 /= ll
         r0 = x[n, 0] - x[c, 0]; r1 = x[n, 1] - x[c, 1]; r2 = x[n, 2] - x[c, 2]
         ovl = r0 * l0 + r1 * l1 + r2 * l2             # along the line, past the corner
-        tol = OPEN_TOL * g_rad[s]
         if ovl >= tol:
-            return False, bxi, beta, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, bin_, bd
+            return False, bxi, beta, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, ZONE_BORDER, bd
         p0 = r0 - ovl * l0; p1 = r1 - ovl * l1; p2 = r2 - ovl * l2
         dl = math.sqrt(p0 * p0 + p1 * p1 + p2 * p2)
         cxi = -1.0 if kc == 0 or kc == 3 else 1.0
         ceta = -1.0 if kc < 2 else 1.0
-        sgn = -1.0 if rn < 0.0 else 1.0
+        ov = max(ovl, 0.0)
+        if ovl <= 0.0:
+            l0 = 0.0; l1 = 0.0; l2 = 0.0
         if dl <= 1e-12 * ll:
-            return True, cxi, ceta, 0.0, n0, n1, n2, max(ovl, 0.0), 0.0, 0.0, 0.0, bin_, bd
-        if ovl > 0.0:
-            return (True, cxi, ceta, sgn * dl, sgn * p0 / dl, sgn * p1 / dl, sgn * p2 / dl, ovl, l0, l1, l2,
-                    bin_, bd)
-        return True, cxi, ceta, sgn * dl, sgn * p0 / dl, sgn * p1 / dl, sgn * p2 / dl, 0.0, 0.0, 0.0, 0.0, bin_, bd
+            return True, cxi, ceta, 0.0, n0, n1, n2, ov, l0, l1, l2, ZONE_BORDER, bd
+        return True, cxi, ceta, sgn * dl, sgn * p0 / dl, sgn * p1 / dl, sgn * p2 / dl, ov, l0, l1, l2, ZONE_BORDER, bd
     # the surface between the facet's corners bulges out of the bilinear facet by the sag
-    # s = sa (1 - xi^2) + sb (1 - eta^2) (:func:`facet_sags`); its gradient with respect to the slave
-    # follows the free projection coordinates (dual basis of the facet tangents), a clamped one is fixed
+    # s = sa (1 - xi^2) + sb (1 - eta^2) (:func:`facet_sags`)
     sa = seg_sag[s, 0]
     sb = seg_sag[s, 1]
     sg = sa * (1.0 - bxi * bxi) + sb * (1.0 - beta * beta)
-    q0 = 0.0; q1 = 0.0; q2 = 0.0
-    if sa != 0.0 or sb != 0.0:
-        fxi = abs(bxi) < 1.0
-        feta = abs(beta) < 1.0
-        dxi = -2.0 * sa * bxi
-        deta = -2.0 * sb * beta
-        g11 = a0 * a0 + a1 * a1 + a2 * a2
-        g22 = c0 * c0 + c1 * c1 + c2 * c2
-        g12 = a0 * c0 + a1 * c1 + a2 * c2
-        if fxi and feta:
-            det = g11 * g22 - g12 * g12
-            wa = (dxi * g22 - deta * g12) / det
-            wc = (deta * g11 - dxi * g12) / det
-        elif fxi:
-            wa = dxi / g11
-            wc = 0.0
-        elif feta:
-            wa = 0.0
-            wc = deta / g22
-        else:
-            wa = 0.0
-            wc = 0.0
-        q0 = wa * a0 + wc * c0; q1 = wa * a1 + wc * c1; q2 = wa * a2 + wc * c2
-    if open_edge:
-        # the overshoot: how far the projection lies past the open edges, along the facet's parametric
-        # directions (at a shared edge, the neighbour measures the same along that edge); its gradient with
-        # respect to the slave through the dual basis of the facet tangents
-        tol = OPEN_TOL * g_rad[s]
+    q0, q1, q2 = _dual_gradient(a0, a1, a2, c0, c1, c2, -2.0 * sa * bxi, -2.0 * sb * beta,
+                                abs(bxi) < 1.0, abs(beta) < 1.0)
+    if not bin_ and shared == 0:
+        # the strip beyond open edges: the overshoot past them along the facet's parametric directions (at a
+        # shared edge, the neighbour measures the same along that edge), with its gradient
         la = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
         lc = math.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
         oa = 0.0
         oc = 0.0
-        sa_ = 0.0
-        sc_ = 0.0
         if beyond & 2:
-            oa = (xi_u - 1.0) * la; sa_ = la
+            oa = (xi_u - 1.0) * la
         elif beyond & 8:
-            oa = (-1.0 - xi_u) * la; sa_ = -la
+            oa = (-1.0 - xi_u) * la
         if beyond & 4:
-            oc = (eta_u - 1.0) * lc; sc_ = lc
+            oc = (eta_u - 1.0) * lc
         elif beyond & 1:
-            oc = (-1.0 - eta_u) * lc; sc_ = -lc
+            oc = (-1.0 - eta_u) * lc
         ov = math.sqrt(oa * oa + oc * oc)
         if ov >= tol:
-            return False, bxi, beta, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, bin_, bd   # beyond the surface edge
+            return False, bxi, beta, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, ZONE_STRIP, bd   # beyond the surface edge
+        t0 = 0.0; t1 = 0.0; t2 = 0.0
         if ov > 1e-12 * tol:
-            g11 = la * la
-            g22 = lc * lc
-            g12 = a0 * c0 + a1 * c1 + a2 * c2
-            det = g11 * g22 - g12 * g12
-            wa = oa / ov * sa_
-            wc = oc / ov * sc_
-            # d xi_u / dx = (g22 a - g12 c) / det, d eta_u / dx = (g11 c - g12 a) / det
-            ka = (wa * g22 - wc * g12) / det
-            kc_ = (wc * g11 - wa * g12) / det
-            t0 = ka * a0 + kc_ * c0; t1 = ka * a1 + kc_ * c1; t2 = ka * a2 + kc_ * c2
-        else:
-            t0 = 0.0; t1 = 0.0; t2 = 0.0
-        return True, bxi, beta, rn - sg, n0 - q0, n1 - q1, n2 - q2, ov, t0, t1, t2, bin_, bd
+            # d ov = (oa la sign_a d xi_u + oc lc sign_c d eta_u) / ov, the unclamped coordinates free
+            t0, t1, t2 = _dual_gradient(a0, a1, a2, c0, c1, c2, oa * la * (1.0 if beyond & 2 else -1.0) / ov,
+                                        oc * lc * (1.0 if beyond & 4 else -1.0) / ov, True, True)
+        return True, bxi, beta, rn - sg, n0 - q0, n1 - q1, n2 - q2, ov, t0, t1, t2, ZONE_STRIP, bd
     if bin_ or bd <= 1e-9 * math.sqrt(nl):
-        return (True, bxi, beta, (-bd if rn < 0.0 else bd) - sg, n0 - q0, n1 - q1, n2 - q2, 0.0, 0.0, 0.0, 0.0,
-                bin_, bd)
-    # border zones (beyond a shared edge or corner): the distance to the closest point, signed by the side
-    sgn = -1.0 if rn < 0.0 else 1.0
+        return (True, bxi, beta, sgn * bd - sg, n0 - q0, n1 - q1, n2 - q2, 0.0, 0.0, 0.0, 0.0,
+                ZONE_INSIDE if bin_ else ZONE_BORDER, bd)
+    # border zone (beyond a shared edge or corner): the distance to the closest point, signed by the side
     return (True, bxi, beta, sgn * bd - sg, sgn * r0 / bd - q0, sgn * r1 / bd - q1, sgn * r2 / bd - q2,
-            0.0, 0.0, 0.0, 0.0, bin_, bd)
+            0.0, 0.0, 0.0, 0.0, ZONE_BORDER, bd)
 
 
 @njit(cache=True, fastmath=True)
 def _signed_gap_3d(x, segs, g_rad, seg_open, seg_sag, cand, ncand, i, n, lbs, order, cutoff=1e300):
-    """Nearest master feature of slave ``i`` (node ``n``) among its candidates.
+    """Master feature of slave ``i`` (node ``n``) among its candidates.
 
     Returns (facet or -1, xi, eta, signed gap (negative = penetration), contact normal, tangential overshoot,
-    its direction), see :func:`_facet_gap`. The facet is the one whose own gap is the smallest in magnitude,
-    so that the gap is continuous where the choice passes from one facet to another (equal gaps there).
-    Choosing by the distance instead breaks beyond an open surface edge, where the distance includes the
-    tangential overshoot but the gap is the normal distance to the facet plane: at a crease of the master
-    surface (a tip rounding meeting the flank) near its end face, the overshoots of the two facets decide the
-    choice and the gap jumps between the two planes' distances. A node whose nearest facet (by distance) has
-    it beyond the surface edge is not in contact (a farther facet would see it through its border zone, as
-    deep as its distance to that facet's edge).
+    its gradient), see :func:`_facet_gap`. Among the facets that have the node inside or in their strip
+    beyond open edges (where the gap is the distance to the facet's surface), the one whose gap is the
+    smallest in magnitude: the gap is continuous where that choice passes from one facet to another (equal
+    gaps there). Choosing by the distance instead breaks beyond an open surface edge, where the distance
+    includes the tangential overshoot but the gap is the normal distance to the facet plane: at a crease of
+    the master surface near its end face (a tip rounding meeting the flank), the overshoots of the two
+    facets decide the choice and the gap jumps between the two planes' distances. Border zones (beyond a
+    shared edge or corner) serve only where no facet has the node inside or in its strip (above a convex
+    edge), the nearest by distance: there the sag taken off the gap lowers its magnitude below the
+    distance, and the least magnitude would take a neighbour's border zone over the facet the node lies
+    on, with a gap gradient pointing along the surface (a kink the time step crosses with an energy error,
+    all of one sign for nodes sliding the same way). A facet with the node inside or in its strip is
+    passed over for the nearest border zone when its gap exceeds that distance by more than the reach and
+    sags (a facet elsewhere on the surface that happens to have the node in front of it). A node whose
+    nearest facet (by distance) has it beyond the surface edge is not in contact (a farther facet would see
+    it through its border zone, as deep as its distance to that facet's edge).
 
     A bilinear facet lies in the convex hull of its corners, so its distance from the node is at least
     (distance to the corners' centroid) - (largest corner distance from that centroid); a facet's gap is at
     least that bound less its reach beyond open edges and its sags. Candidates are taken in the order of the
-    bound and the rest skipped once it exceeds both the nearest distance and the smallest gap found (with
-    that slack); facet -1 is returned at once when every bound reaches ``cutoff`` (m). ``lbs`` (float) and
-    ``order`` (int64), at least ``ncand[i]`` long, are scratch.
+    bound and the rest skipped once none can change the result; facet -1 is returned at once when every
+    bound reaches ``cutoff`` (m). ``lbs`` (float) and ``order`` (int64), at least ``ncand[i]`` long, are
+    scratch.
     """
     K = ncand[i]
     lbmin = 1e300
@@ -469,26 +473,43 @@ def _signed_gap_3d(x, segs, g_rad, seg_open, seg_sag, cand, ncand, i, n, lbs, or
     near_d = 0.0
     near_in = False
     near_ok = False
-    best = -1
-    bm = 0.0
-    bin_ = False
-    bxi = 0.0; beta = 0.0; bg = 0.0; bn0 = 0.0; bn1 = 0.0; bn2 = 0.0; bov = 0.0; bt0 = 0.0; bt1 = 0.0; bt2 = 0.0
+    on = -1                          # best facet with the node inside or in its strip: least |gap|
+    on_m = 0.0
+    on_in = False
+    bo = -1                          # best border zone: least distance
+    bo_d = 0.0
+    bo_m = 0.0
+    on_r = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    bo_r = on_r
     for r in range(K):
-        if near >= 0 and lbs[r] > near_d * (1 + 1e-12) and (best < 0 or lbs[r] - slack > bm):
-            break                    # every remaining facet is farther, and its gap larger
+        lb = lbs[r]
+        if near >= 0 and lb > near_d * (1 + 1e-12):
+            if not near_ok:
+                break                # nothing nearer: out of contact whatever follows
+            on_open = lb - slack <= (on_m if on >= 0 else (bo_d + slack if bo >= 0 else 1e300))
+            bo_open = (bo < 0 or lb <= bo_d * (1 + 1e-12)) and (on < 0 or on_m > lb + slack)
+            if not on_open and not bo_open:
+                break                # no remaining facet can change the choice
         s = cand[i, order[r]]
-        ok, xi, eta, g, g0, g1, g2, ov, t0, t1, t2, inside, d = _facet_gap(x, segs, g_rad, seg_open, seg_sag, s, n)
+        ok, xi, eta, g, g0, g1, g2, ov, t0, t1, t2, zone, d = _facet_gap(x, segs, g_rad, seg_open, seg_sag, s, n)
+        inside = zone == ZONE_INSIDE
         if near < 0 or d < near_d * (1 - 1e-12) or (d <= near_d * (1 + 1e-12) and inside and not near_in):
             near = s; near_d = d; near_in = inside; near_ok = ok
         if not ok:
             continue
         m = abs(g)
-        if best < 0 or m < bm * (1 - 1e-12) or (m <= bm * (1 + 1e-12) and inside and not bin_):
-            best = s; bm = m; bin_ = inside; bxi = xi; beta = eta; bg = g
-            bn0 = g0; bn1 = g1; bn2 = g2; bov = ov; bt0 = t0; bt1 = t1; bt2 = t2
-    if best < 0 or not near_ok:
+        if zone != ZONE_BORDER:
+            if on < 0 or m < on_m * (1 - 1e-12) or (m <= on_m * (1 + 1e-12) and inside and not on_in):
+                on = s; on_m = m; on_in = inside; on_r = (xi, eta, g, g0, g1, g2, ov, t0, t1, t2)
+        elif bo < 0 or d < bo_d * (1 - 1e-12) or (d <= bo_d * (1 + 1e-12) and m < bo_m):
+            bo = s; bo_d = d; bo_m = m; bo_r = (xi, eta, g, g0, g1, g2, ov, t0, t1, t2)
+    if not near_ok or (on < 0 and bo < 0):
         return -1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-    return best, bxi, beta, bg, bn0, bn1, bn2, bov, bt0, bt1, bt2
+    if on >= 0 and (bo < 0 or on_m <= bo_d + slack):
+        best = on; r_ = on_r
+    else:
+        best = bo; r_ = bo_r
+    return best, r_[0], r_[1], r_[2], r_[3], r_[4], r_[5], r_[6], r_[7], r_[8], r_[9]
 
 
 @njit(cache=True)
