@@ -14,7 +14,7 @@ the flank and kicked it: 0.4 J out of nothing per event). For 0 < -g <= capture 
 f = k (-g) n (n the outward master normal, or the direction to the master corner in a vertex zone), the
 master nodes get -f times their shape functions at the projection. 3D: among a slave's candidate
 facets that have it inside or in their strip beyond an open surface edge, the one whose own gap
-(:func:`_facet_gap`: distance to the facet's surface, beyond an open edge to its extended plane) is the
+(:func:`_facet_gap`: distance to the facet's surface, beyond an open edge to its extension) is the
 smallest in magnitude, so that the gap is continuous where the choice changes; above a convex edge, where
 no facet has it inside, the nearest border zone (:func:`_signed_gap_3d`). Coulomb friction is regularized by the slip
 velocity: f_t = -mu f_n v_t / sqrt(|v_t|^2 + v_reg^2). The penalty energy k g^2 / 2 and the friction
@@ -325,12 +325,14 @@ def _facet_gap(x, segs, g_rad, seg_open, seg_sag, s, n):
 
     Returns (within reach, xi, eta, signed gap (negative = penetration), contact normal, tangential overshoot,
     overshoot gradient, zone, distance to the facet). Inside the facet (``ZONE_INSIDE``) the signed
-    distance; beyond open surface edges only (``ZONE_STRIP``) the normal distance to the facet plane while
-    the overshoot (m; how far the projection lies past the open edges, measured along the facet's
-    parametric directions) is below ``OPEN_TOL`` facet radii, "not within reach" farther out (see
-    :func:`contact_forces_3d`); beyond a shared edge or corner (``ZONE_BORDER``) the distance to the
-    closest border point signed by the side of the facet plane, or beyond a shared edge and an open edge
-    the distance to the shared edge's line (up to the same reach past the surface edge). The facet's sag
+    distance; beyond open surface edges only (``ZONE_STRIP``) the signed distance to the facet's bilinear
+    surface extended past them while the overshoot (m; how far the projection lies past the open edges,
+    measured along the facet's parametric directions) is below ``OPEN_TOL`` facet radii, "not within
+    reach" farther out (see :func:`contact_forces_3d`); beyond a shared edge or corner (``ZONE_BORDER``)
+    the distance to the closest border point signed by the side of the facet plane, or beyond a shared
+    edge and an open edge the distance to the shared edge's line (up to the same reach past the surface
+    edge). (xi, eta) is the point whose shape functions share the force among the facet's nodes: in the
+    strip and on the line it lies outside [-1, 1]^2 (extended surface, extended edge). The facet's sag
     (``seg_sag``, :func:`facet_sags`) is taken off the gap, and the normal is the gradient of that gap with
     respect to the slave's position (unit without sag).
     """
@@ -366,8 +368,14 @@ def _facet_gap(x, segs, g_rad, seg_open, seg_sag, s, n):
             return False, bxi, beta, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, ZONE_BORDER, bd
         p0 = r0 - ovl * l0; p1 = r1 - ovl * l1; p2 = r2 - ovl * l2
         dl = math.sqrt(p0 * p0 + p1 * p1 + p2 * p2)
+        # the foot on the line in the facet's parametric coordinates (extended along the edge past the
+        # corner), so that the edge's two nodes take the force as the exact gradient of the line distance
         cxi = -1.0 if kc == 0 or kc == 3 else 1.0
         ceta = -1.0 if kc < 2 else 1.0
+        oxi = -1.0 if ko == 0 or ko == 3 else 1.0
+        oeta = -1.0 if ko < 2 else 1.0
+        cxi += ovl / ll * (cxi - oxi)
+        ceta += ovl / ll * (ceta - oeta)
         ov = max(ovl, 0.0)
         if ovl <= 0.0:
             l0 = 0.0; l1 = 0.0; l2 = 0.0
@@ -382,8 +390,21 @@ def _facet_gap(x, segs, g_rad, seg_open, seg_sag, s, n):
     q0, q1, q2 = _dual_gradient(a0, a1, a2, c0, c1, c2, -2.0 * sa * bxi, -2.0 * sb * beta,
                                 abs(bxi) < 1.0, abs(beta) < 1.0)
     if not bin_ and shared == 0:
-        # the strip beyond open edges: the overshoot past them along the facet's parametric directions (at a
-        # shared edge, the neighbour measures the same along that edge), with its gradient
+        # the strip beyond open edges: the facet's bilinear surface extended, with the orthogonal projection
+        # (xi_u, eta_u) on it (continuous with the inside zone at the edge; the master nodes then take the
+        # force with their extended shape functions there, the exact gradient of the gap); the sag stays at
+        # its value on the edge. The overshoot past the open edges is measured along the parametric
+        # directions (at a shared edge, the neighbour measures the same along that edge), with its gradient.
+        p0, p1, p2, a0, a1, a2, c0, c1, c2 = _facet_point(x, segs, s, xi_u, eta_u)
+        n0 = a1 * c2 - a2 * c1; n1 = a2 * c0 - a0 * c2; n2 = a0 * c1 - a1 * c0
+        nl = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+        n0 /= nl; n1 /= nl; n2 /= nl
+        rn = (x[n, 0] - p0) * n0 + (x[n, 1] - p1) * n1 + (x[n, 2] - p2) * n2
+        cx = min(max(xi_u, -1.0), 1.0)
+        ce = min(max(eta_u, -1.0), 1.0)
+        sg = sa * (1.0 - cx * cx) + sb * (1.0 - ce * ce)
+        q0, q1, q2 = _dual_gradient(a0, a1, a2, c0, c1, c2, -2.0 * sa * cx, -2.0 * sb * ce,
+                                    abs(xi_u) < 1.0, abs(eta_u) < 1.0)
         la = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
         lc = math.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
         oa = 0.0
@@ -401,10 +422,10 @@ def _facet_gap(x, segs, g_rad, seg_open, seg_sag, s, n):
             return False, bxi, beta, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, ZONE_STRIP, bd   # beyond the surface edge
         t0 = 0.0; t1 = 0.0; t2 = 0.0
         if ov > 1e-12 * tol:
-            # d ov = (oa la sign_a d xi_u + oc lc sign_c d eta_u) / ov, the unclamped coordinates free
+            # d ov = (oa la sign_a d xi_u + oc lc sign_c d eta_u) / ov
             t0, t1, t2 = _dual_gradient(a0, a1, a2, c0, c1, c2, oa * la * (1.0 if beyond & 2 else -1.0) / ov,
                                         oc * lc * (1.0 if beyond & 4 else -1.0) / ov, True, True)
-        return True, bxi, beta, rn - sg, n0 - q0, n1 - q1, n2 - q2, ov, t0, t1, t2, ZONE_STRIP, bd
+        return True, xi_u, eta_u, rn - sg, n0 - q0, n1 - q1, n2 - q2, ov, t0, t1, t2, ZONE_STRIP, bd
     if bin_ or bd <= 1e-9 * math.sqrt(nl):
         return (True, bxi, beta, sgn * bd - sg, n0 - q0, n1 - q1, n2 - q2, 0.0, 0.0, 0.0, 0.0,
                 ZONE_INSIDE if bin_ else ZONE_BORDER, bd)
@@ -740,8 +761,10 @@ def contact_forces_3d(x, v, slaves, s_pair, segs, g_k, g_rad, cand, ncand, p_mu,
     and the distance to it changes sign with the side of the facet plane only through zero when the
     node passes the edge exactly in that plane. A node just beyond it (tangential overshoot up to
     ``OPEN_TOL`` of the facet radius, measured along the facet's parametric directions, as its neighbour
-    across a shared edge measures it along that edge) therefore takes the normal distance to the facet
-    plane (continuous with the inside zone), with its penalty energy faded to zero over that reach
+    across a shared edge measures it along that edge) therefore takes the distance to the facet's bilinear
+    surface extended past the edge (continuous with the inside zone; the facet's nodes take the force with
+    their shape functions at the projection on the extension, which makes it the exact gradient of that
+    distance), with its penalty energy faded to zero over that reach
     (:func:`edge_fade`; the force is the energy's gradient, so it has a tangential part pushing the node
     off the edge); farther out it is not in contact. A loaded node sliding off a cut flank end thus
     unloads continuously instead of dropping its energy ``k g^2 / 2`` at the reach. Without that rule a node
