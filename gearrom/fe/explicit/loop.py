@@ -30,6 +30,8 @@ from gearrom.fe.explicit.contact import (contact_forces_2d, contact_scatter_3d, 
 from gearrom.fe.explicit.kernels import hex8_element, hex8_full_element, q4_element, q4_full_element
 
 NE_OUT = 10
+#: node ranges of the free-node pass (fixed, so that its sums are the same on any number of threads)
+NPART = 64
 
 
 @njit(cache=True, inline="always")
@@ -118,10 +120,13 @@ def _run_loop(nsteps, dt, out_every, t0, alpha, alpha_r, margin, cell_h,
     c_out = np.empty((ns, 9))
     c_act = np.empty(ns, np.int64)
     allowance = open_edge_allowance(g_rad, seg_sag) if dim == 3 else 0.0
+    # per node range: the references' damping reactions and the dissipated powers of the free-node pass
+    part = np.empty((NPART, nr, 4))
+    part_p = np.empty((NPART, 2))
     for step in range(nsteps + 1):
         t = t0 + step * dt
         if step > 0:
-            # ---- kick (half) + drift of free nodes
+            # ---- kick (half) + drift of free nodes; the forces cleared in the same pass
             for i in prange(n):
                 if kind[i] < 0:
                     for d in range(dim):
@@ -130,6 +135,8 @@ def _run_loop(nsteps, dt, out_every, t0, alpha, alpha_r, margin, cell_h,
                         else:
                             v[i, d] += 0.5 * dt * a[i, d]
                             u[i, d] += dt * v[i, d]
+                for d in range(dim):
+                    f[i, d] = 0.0
             # ---- rigid references: kick + drift, then tied nodes follow
             for r in range(nr):
                 if r_fixtr[r] == 0:
@@ -159,6 +166,10 @@ def _run_loop(nsteps, dt, out_every, t0, alpha, alpha_r, margin, cell_h,
                     if dim == 3:
                         u[i, 2] = r_pos[r, 2]
                         v[i, 2] = r_vel[r, 2]
+        else:
+            for i in prange(n):
+                for d in range(dim):
+                    f[i, d] = 0.0
         # ---- contact search when contact nodes moved too far
         if slaves.shape[0] > 0:
             dmax = 0.0
@@ -171,17 +182,13 @@ def _run_loop(nsteps, dt, out_every, t0, alpha, alpha_r, margin, cell_h,
                 dmax = max(dmax, s2)
             if step == 0 or math.sqrt(dmax) > 0.5 * margin:
                 for k in range(c_nodes.shape[0]):
+                    i = c_nodes[k]
                     for d in range(dim):
-                        c_usearch[k, d] = u[c_nodes[k], d]
-                for i in range(n):
-                    for d in range(dim):
-                        f[i, d] = X[i, d] + u[i, d]
-                contact_search(f, slaves, s_pair, segs, g_pair, g_rad,
+                        c_usearch[k, d] = u[i, d]
+                        a[i, d] = X[i, d] + u[i, d]
+                contact_search(a, slaves, s_pair, segs, g_pair, g_rad,
                                margin + p_depth.max(), head, nxt, cand, ncand, cell_h)
-        # ---- forces
-        for i in prange(n):
-            for d in range(dim):
-                f[i, d] = 0.0
+        # ---- forces (cleared above)
         wint = 0.0
         whg = 0.0
         phg = 0.0
@@ -207,8 +214,10 @@ def _run_loop(nsteps, dt, out_every, t0, alpha, alpha_r, margin, cell_h,
         epen = 0.0
         pfr = 0.0
         if slaves.shape[0] > 0:
-            # contact works on current positions: x = X + u, held in ``a`` temporarily
-            for i in prange(n):
+            # contact works on current positions x = X + u of the contact nodes (slaves and facet nodes), held
+            # in ``a`` until the accelerations are formed
+            for k in prange(c_nodes.shape[0]):
+                i = c_nodes[k]
                 for d in range(dim):
                     a[i, d] = X[i, d] + u[i, d]
             if dim == 2:
@@ -241,64 +250,67 @@ def _run_loop(nsteps, dt, out_every, t0, alpha, alpha_r, margin, cell_h,
                     acc[3] += 0.5 * (fl + ld_fprev[k, d]) * (u[i, d] - ld_uprev[k, d])
                     ld_fprev[k, d] = fl
                     ld_uprev[k, d] = u[i, d]
-        # ---- relative damping: a dashpot m alpha_r from each free node to the rigid frame of its body's
-        # reference (velocity relative to that frame); the reaction is summed per reference in r_fd
-        # (force x, y, z and torque about the axis) and applied to the reference below
+        # ---- free nodes, one pass: relative damping, a dashpot m alpha_r from each free node to the rigid
+        # frame of its body's reference (velocity relative to that frame); mass damping; acceleration; second
+        # half kick. The pass runs over fixed node ranges, each summing its share of the references'
+        # reactions (force x, y, z and torque about the axis) and of the dissipated power in its own row of
+        # ``part``, so the sums do not depend on the thread count; they are added up in range order below.
+        damped = alpha_r > 0.0
+        for q in prange(NPART):
+            for rb in range(nr):
+                for d in range(4):
+                    part[q, rb, d] = 0.0
+            pdr_q = 0.0
+            pd_q = 0.0
+            for i in range(q * n // NPART, (q + 1) * n // NPART):
+                if kind[i] < 0:
+                    rb = body[i]
+                    if damped and rb >= 0:
+                        px = X[i, 0] + u[i, 0] - r_center[rb, 0] - r_pos[rb, 0]
+                        py = X[i, 1] + u[i, 1] - r_center[rb, 1] - r_pos[rb, 1]
+                        w = r_om[rb]
+                        cm = alpha_r * mass[i]
+                        fx = 0.0 if fixmask[i, 0] else -cm * (v[i, 0] - r_vel[rb, 0] + w * py)
+                        fy = 0.0 if fixmask[i, 1] else -cm * (v[i, 1] - r_vel[rb, 1] - w * px)
+                        f[i, 0] += fx
+                        f[i, 1] += fy
+                        pdr_q += (fx * fx + fy * fy) / cm
+                        part[q, rb, 0] -= fx
+                        part[q, rb, 1] -= fy
+                        part[q, rb, 3] -= px * fy - py * fx
+                        if dim == 3:
+                            fz = 0.0 if fixmask[i, 2] else -cm * (v[i, 2] - r_vel[rb, 2])
+                            f[i, 2] += fz
+                            pdr_q += fz * fz / cm
+                            part[q, rb, 2] -= fz
+                    for d in range(dim):
+                        if fixmask[i, d]:
+                            a[i, d] = 0.0
+                            v[i, d] = 0.0
+                        else:
+                            fd = -alpha * mass[i] * v[i, d]
+                            pd_q += -fd * v[i, d]
+                            a[i, d] = (f[i, d] + fd) / mass[i]
+                            if step > 0:
+                                v[i, d] += 0.5 * dt * a[i, d]
+                else:
+                    for d in range(dim):
+                        a[i, d] = 0.0
+            part_p[q, 0] = pdr_q
+            part_p[q, 1] = pd_q
         pdr = 0.0
+        pd = 0.0
         for r in range(nr):
             for d in range(4):
                 r_fd[r, d] = 0.0
-        if alpha_r > 0.0:
-            # one parallel pass per reference: the reaction sums are scalar reductions
+        for q in range(NPART):
+            pdr += part_p[q, 0]
+            pd += part_p[q, 1]
             for r in range(nr):
-                sx = 0.0
-                sy = 0.0
-                sz = 0.0
-                st = 0.0
-                for i in prange(n):
-                    if body[i] == r and kind[i] < 0:
-                        px = X[i, 0] + u[i, 0] - r_center[r, 0] - r_pos[r, 0]
-                        py = X[i, 1] + u[i, 1] - r_center[r, 1] - r_pos[r, 1]
-                        w = r_om[r]
-                        cm = alpha_r * mass[i]
-                        fx = 0.0 if fixmask[i, 0] else -cm * (v[i, 0] - r_vel[r, 0] + w * py)
-                        fy = 0.0 if fixmask[i, 1] else -cm * (v[i, 1] - r_vel[r, 1] - w * px)
-                        f[i, 0] += fx
-                        f[i, 1] += fy
-                        pdr += (fx * fx + fy * fy) / cm
-                        sx -= fx
-                        sy -= fy
-                        st -= px * fy - py * fx
-                        if dim == 3:
-                            fz = 0.0 if fixmask[i, 2] else -cm * (v[i, 2] - r_vel[r, 2])
-                            f[i, 2] += fz
-                            pdr += fz * fz / cm
-                            sz -= fz
-                r_fd[r, 0] = sx
-                r_fd[r, 1] = sy
-                r_fd[r, 2] = sz
-                r_fd[r, 3] = st
-            if step > 0:
-                acc[2] += pdr * dt
-        # ---- free nodes: acceleration, mass damping, second half kick
-        pd = 0.0
-        for i in prange(n):
-            if kind[i] < 0:
-                for d in range(dim):
-                    if fixmask[i, d]:
-                        a[i, d] = 0.0
-                        v[i, d] = 0.0
-                    else:
-                        fd = -alpha * mass[i] * v[i, d]
-                        pd += -fd * v[i, d]
-                        a[i, d] = (f[i, d] + fd) / mass[i]
-                        if step > 0:
-                            v[i, d] += 0.5 * dt * a[i, d]
-            else:
-                for d in range(dim):
-                    a[i, d] = 0.0
+                for d in range(4):
+                    r_fd[r, d] += part[q, r, d]
         if step > 0:
-            acc[2] += pd * dt
+            acc[2] += (pdr + pd) * dt
         # ---- rigid references
         espring = 0.0
         for r in range(nr):
