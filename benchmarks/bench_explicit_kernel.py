@@ -25,6 +25,12 @@ same run, with one pass per greedy colour over the whole mesh (the element order
 and the share of the elements, the contact and the damping in the step (the same steps without contact and
 without relative damping). Writes ``hex8_helical_reference`` into the results file.
 
+``--loop-passes``: on the same reference model, the whole step with the package loop (the free nodes' damping,
+accelerations and second half-kick in one pass, forces cleared in the kick-drift pass, contact positions for the
+contact nodes only) against the loop of git revision ``LOOP_BASELINE_REV`` (a pass per reference for the relative
+damping, a force-reset pass and a position pass over all nodes), alternated in one run, best of three each.
+Writes ``hex8_helical_loop_passes``.
+
 ``--kernel-variants``: on the same reference model and element schedule, the fully integrated Hex8 element
 pass alone (no step around it), serial and on both cores, in one run: the package (its kernel
 :func:`gearrom.fe.explicit.kernels.hex8_full_element`: displacements read once, forces summed over the Gauss
@@ -219,6 +225,53 @@ def measure_reference(nsteps: int = 60) -> dict:
     return out
 
 
+#: git revision whose explicit loop makes the node passes separately (``--loop-passes``)
+LOOP_BASELINE_REV = "09fcf82"
+
+
+def measure_loop_passes(nsteps: int = 100, repeats: int = 3) -> dict:
+    """Step time of the reference model, package loop vs the loop of ``LOOP_BASELINE_REV`` (``--loop-passes``)."""
+    import importlib.util
+    import subprocess
+    import tempfile
+    from pathlib import Path
+
+    import gearrom.fe.explicit.driver as driver
+    import gearrom.fe.explicit.loop as loop
+
+    root = Path(__file__).resolve().parents[1]
+    src = subprocess.run(["git", "show", f"{LOOP_BASELINE_REV}:gearrom/fe/explicit/loop.py"], cwd=root,
+                         check=True, capture_output=True, text=True).stdout
+    tmp = Path(tempfile.mkdtemp()) / "loop_baseline.py"
+    tmp.write_text(src)
+    spec = importlib.util.spec_from_file_location("loop_baseline", tmp)
+    baseline = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(baseline)
+    model, d = _reference_model()
+    dt = d["dt"]
+    loops = {"package": loop.run_loop_parallel, "baseline": baseline.run_loop_parallel}
+    walls = {k: [] for k in loops}
+    energy = {}
+    try:
+        for _ in range(repeats):
+            for name, fn in loops.items():
+                driver.run_loop_parallel = fn
+                solve(model, 4 * dt, sample_period=2 * dt, prepared=d, parallel=True, chunks=1)
+                t0 = time.perf_counter()
+                res = solve(model, nsteps * dt, sample_period=nsteps * dt / 2, prepared=d, parallel=True, chunks=1)
+                walls[name].append((time.perf_counter() - t0) / res.meta["n_steps"] * 1e3)
+                energy[name] = float(res.energy_error)
+                print(f"{name}: {walls[name][-1]:.1f} ms per step", flush=True)
+    finally:
+        driver.run_loop_parallel = loop.run_loop_parallel
+    out = {name: {"ms_per_step": min(w), "ms_per_step_repeats": w, "energy_error_J": energy[name]}
+           for name, w in walls.items()}
+    out["speedup"] = out["baseline"]["ms_per_step"] / out["package"]["ms_per_step"]
+    out["baseline_rev"] = LOOP_BASELINE_REV
+    out["n_steps"] = nsteps
+    return out
+
+
 @numba.njit(cache=True, fastmath=True, inline="always")
 def _hex8_full_per_gauss(e, conn, u, Bg, Wg, lam, mu, f):
     """Baseline fully integrated Hex8 element: the displacements are read and the forces written at every
@@ -327,6 +380,14 @@ def main() -> None:
         figures = json.loads((RESULTS / "bench_explicit_kernel.json").read_text())["figures"]
         figures["hex8_full_kernel_variants"] = measure_kernel_variants()
         figures["hex8_full_kernel_variants_load_average_1_5_15"] = list(os.getloadavg())
+        write_result("bench_explicit_kernel", figures)
+        return
+    if "--loop-passes" in sys.argv:
+        from _common import RESULTS
+
+        figures = json.loads((RESULTS / "bench_explicit_kernel.json").read_text())["figures"]
+        figures["hex8_helical_loop_passes"] = measure_loop_passes()
+        figures["hex8_helical_loop_passes_load_average_1_5_15"] = list(os.getloadavg())
         write_result("bench_explicit_kernel", figures)
         return
     if "--reference-only" in sys.argv:
