@@ -360,44 +360,36 @@ def measure_kernel_variants(repeats: int = 5) -> dict:
     return out
 
 
+def _add_figure(key: str, value: dict, note: str | None = None) -> None:
+    """Add one measured figure (and the load average after it) to the stored kernel results."""
+    import json
+
+    from _common import RESULTS
+
+    figures = json.loads((RESULTS / "bench_explicit_kernel.json").read_text())["figures"]
+    figures[key] = value
+    figures[f"{key}_load_average_1_5_15"] = list(os.getloadavg())
+    if note is not None:
+        figures[f"{key}_note"] = note
+    write_result("bench_explicit_kernel", figures)
+
+
 def main() -> None:
     import json
     import sys
 
-    if "--full-only" in sys.argv:
-        from _common import RESULTS
-
-        figures = json.loads((RESULTS / "bench_explicit_kernel.json").read_text())["figures"]
-        figures["full_integration"] = measure_full()
-        figures["full_integration_load_average_1_5_15"] = list(os.getloadavg())
-        figures["full_integration_note"] = ("2x2 / 2x2x2 Gauss elements without hourglass control vs the one-point "
-                                            "elements, measured back to back in one run (machine section: its date)")
-        write_result("bench_explicit_kernel", figures)
-        return
-    if "--kernel-variants" in sys.argv:
-        from _common import RESULTS
-
-        figures = json.loads((RESULTS / "bench_explicit_kernel.json").read_text())["figures"]
-        figures["hex8_full_kernel_variants"] = measure_kernel_variants()
-        figures["hex8_full_kernel_variants_load_average_1_5_15"] = list(os.getloadavg())
-        write_result("bench_explicit_kernel", figures)
-        return
-    if "--loop-passes" in sys.argv:
-        from _common import RESULTS
-
-        figures = json.loads((RESULTS / "bench_explicit_kernel.json").read_text())["figures"]
-        figures["hex8_helical_loop_passes"] = measure_loop_passes()
-        figures["hex8_helical_loop_passes_load_average_1_5_15"] = list(os.getloadavg())
-        write_result("bench_explicit_kernel", figures)
-        return
-    if "--reference-only" in sys.argv:
-        from _common import RESULTS
-
-        figures = json.loads((RESULTS / "bench_explicit_kernel.json").read_text())["figures"]
-        figures["hex8_helical_reference"] = measure_reference()
-        figures["hex8_helical_reference_load_average_1_5_15"] = list(os.getloadavg())
-        write_result("bench_explicit_kernel", figures)
-        return
+    single = {   # flag: (key, measurement, note) -- one figure added to the stored results
+        "--full-only": ("full_integration", measure_full,
+                        "2x2 / 2x2x2 Gauss elements without hourglass control vs the one-point "
+                        "elements, measured back to back in one run (machine section: its date)"),
+        "--kernel-variants": ("hex8_full_kernel_variants", measure_kernel_variants, None),
+        "--loop-passes": ("hex8_helical_loop_passes", measure_loop_passes, None),
+        "--reference-only": ("hex8_helical_reference", measure_reference, None),
+    }
+    for flag, (key, measure_one, note) in single.items():
+        if flag in sys.argv:
+            _add_figure(key, measure_one(), note)
+            return
     if "--helical-only" in sys.argv:
         from _common import RESULTS
 
