@@ -92,13 +92,13 @@ def calibration(kind: str) -> dict:
     return d
 
 
-def settling(cal: dict, f_mesh: float) -> tuple[float, float, float, float, int]:
-    """``(alpha_r [1/s], zeta, mesh-mode frequency [Hz], decay time 1 / (zeta w) [s], mesh periods covering five
-    decay times)`` of a ring-down calibration at mesh frequency ``f_mesh`` [Hz]: after five decay times the
-    start transient is below 1 % of its size."""
+def settling(cal: dict, f_mesh: float, decay_times: float = 5.0) -> tuple[float, float, float, float, int]:
+    """``(alpha_r [1/s], zeta, mesh-mode frequency [Hz], decay time 1 / (zeta w) [s], mesh periods covering
+    ``decay_times`` decay times)`` of a ring-down calibration at mesh frequency ``f_mesh`` [Hz]: after n decay
+    times the start transient is exp(-n) of its size (five: below 1 %; three: below 5 %)."""
     alpha, zeta, f_mode = cal["alpha_r_per_s"], cal["zeta_target"], cal["runs"][-1]["frequency_Hz"]
     tau = 1.0 / (zeta * 2 * math.pi * f_mode)
-    return alpha, zeta, f_mode, tau, math.ceil(5 * tau * f_mesh)
+    return alpha, zeta, f_mode, tau, math.ceil(decay_times * tau * f_mesh)
 
 
 def reference_meshes(pair, mesh: dict = REFERENCE_MESH):
