@@ -34,6 +34,7 @@ import platform
 import sys
 import time
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -63,12 +64,12 @@ STAGGER = False
 SETTLE_DECAY_TIMES = 3.0
 
 
-def main_loaded(rpm: float, periods: int = 10, settle_periods: int | None = None, parallel: bool = False,
-                wall_limit: float | None = None, cal: dict | None = None, out_dir: Path = HERE,
-                config: str = "thesis-helical") -> Path:
-    """Run one speed from the loaded static state; write ``helical_<rpm>rpm_loaded.npz/.json`` into ``out_dir``
-    (checkpoints in its ``checkpoints/``). ``cal``: a ring-down calibration (default: the stored
-    ``ringdown_helical.json``, whose ``mesh`` is the model); a coarse one makes a dry run of the whole chain."""
+def loaded_case(rpm: float, periods: int = 10, settle_periods: int | None = None, cal: dict | None = None,
+                out_dir: Path = HERE, config: str = "thesis-helical") -> SimpleNamespace:
+    """Everything that defines the loaded-start reference of ``config`` at ``rpm``, without running it: the
+    pair, the model's meshes and set-up, the damping and settling (:func:`run_ringdown.settling`), ``t_end``,
+    the record's stem and its checkpoint path. ``cal``: a ring-down calibration (default: the stored
+    ``ringdown_helical.json``, whose ``mesh`` is the model)."""
     from run_ringdown import calibration, reference_meshes, reference_setup, settling
 
     stored = cal is None
@@ -85,12 +86,26 @@ def main_loaded(rpm: float, periods: int = 10, settle_periods: int | None = None
     alpha, zeta, f_mode, tau, settle_default = settling(cal, f_mesh, SETTLE_DECAY_TIMES)
     if settle_periods is None:
         settle_periods = settle_default
-    t_end = (settle_periods + periods) / f_mesh
     setup = reference_setup(mesh, rpm_in=rpm, torque_out=120.0, mu=0.0, start="loaded", relative_damping=alpha)
     stem = record_stem(out_dir, rpm, record_prefix(pair, cfg.name), "loaded")
-    checkpoint = Path(out_dir) / "checkpoints" / (stem.name + ".ckpt.npz")
+    return SimpleNamespace(cfg=cfg, pair=pair, cal=cal, stored=stored, mesh=mesh, meshes=meshes, f_mesh=f_mesh,
+                           alpha=alpha, zeta=zeta, f_mode=f_mode, tau=tau, settle_periods=settle_periods,
+                           periods=periods, t_end=(settle_periods + periods) / f_mesh, setup=setup, stem=stem,
+                           checkpoint=Path(out_dir) / "checkpoints" / (stem.name + ".ckpt.npz"))
+
+
+def main_loaded(rpm: float, periods: int = 10, settle_periods: int | None = None, parallel: bool = False,
+                wall_limit: float | None = None, cal: dict | None = None, out_dir: Path = HERE,
+                config: str = "thesis-helical") -> Path:
+    """Run one speed from the loaded static state; write ``helical_<rpm>rpm_loaded.npz/.json`` into ``out_dir``
+    (checkpoints in its ``checkpoints/``). ``cal``: a ring-down calibration (default: the stored
+    ``ringdown_helical.json``, whose ``mesh`` is the model); a coarse one makes a dry run of the whole chain."""
+    case = loaded_case(rpm, periods, settle_periods, cal, out_dir, config)
+    cfg, pair, cal, mesh, meshes, f_mesh = case.cfg, case.pair, case.cal, case.mesh, case.meshes, case.f_mesh
+    alpha, zeta, f_mode, tau, settle_periods = case.alpha, case.zeta, case.f_mode, case.tau, case.settle_periods
+    t_end, setup, stem, checkpoint = case.t_end, case.setup, case.stem, case.checkpoint
     checkpoint.parent.mkdir(parents=True, exist_ok=True)
-    if stored and pair_key(pair) == pair_key(load_config("thesis-helical").pair):   # the ring-down's pair
+    if case.stored and pair_key(pair) == pair_key(load_config("thesis-helical").pair):   # the ring-down's pair
         _seed_loaded_state(checkpoint, cal)
     t0 = time.perf_counter()
     try:

@@ -67,13 +67,19 @@ def _tag(layers: int, outline: float, body: float, sector: float | None, sag: fl
 def main(n: int = 16, torques=(60.0, 120.0), layers: int = 8, outline: float = 0.3e-3, body: float = 2.5e-3,
          grading: float = 1.0e-3, sector: float | None = None, penalties=(0.1, 0.3, 1.0, 3.0, math.inf),
          sag: float | None = None, geometry_update: bool = False, start_update: bool = True,
-         flat_facets_record: bool = False, periodic: bool = False) -> Path:
+         flat_facets_record: bool = False, periodic: bool = False, reference: bool = False) -> Path:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")   # the seed pair's tip-fillet interference warning (see helicalpair)
         pair = load_config("thesis-helical").pair
     period = 2 * math.pi / pair.z[0]
+    if reference:       # the references' own mesh: the sizes of the ring-down calibration, its stored meshes
+        from run_ringdown import calibration
+
+        ref = calibration("helical")["mesh"]
+        layers, outline, body, grading = ref["n_layers"], ref["outline_size_m"], ref["body_size_m"], ref["grading_m"]
+        sag, periodic, sector = ref["sag_m"], bool(ref.get("periodic", False)), None
     out = HERE / (f"static_gate_helical_{_tag(layers, outline, body, sector, sag, periodic)}"
-                  + ("_updated" if geometry_update else "") + ".json")
+                  + ("_reference" if reference else "") + ("_updated" if geometry_update else "") + ".json")
     data = json.loads(out.read_text()) if out.is_file() else {}
     if not flat_facets_record and data and data.get("facets") != FACETS:
         raise SystemExit(f"{out} holds points of flat contact facets (no sag restored): rename it to "
@@ -85,6 +91,7 @@ def main(n: int = 16, torques=(60.0, 120.0), layers: int = 8, outline: float = 0
     keys = [f"{p:g}" for p in penalties]
     data.update(config="thesis-helical", integration="full", n_layers=layers, outline_size_mm=outline * 1e3,
                 body_size_mm=body * 1e3, grading_mm=grading * 1e3, sector_rad=sector, n_points=n, periodic=periodic,
+                reference_meshes=reference,
                 outline_sag_um=None if sag is None else sag * 1e6, geometry_update=geometry_update,
                 solver="direct static solve of the explicit model (gearrom.fe.explicit.static3d)",
                 definition="static TE on the transverse line of action (explicit runs' convention: zero at rigid "
@@ -96,7 +103,12 @@ def main(n: int = 16, torques=(60.0, 120.0), layers: int = 8, outline: float = 0
     upd_todo = [k for k in keys if k not in upd] if start_update else []
     if todo or upd_todo:
         t0 = time.perf_counter()
-        meshes = helical_meshes(pair, outline, body, grading, sag=sag, periodic=periodic)
+        if reference:
+            from run_ringdown import reference_meshes
+
+            meshes = reference_meshes(pair, ref)
+        else:
+            meshes = helical_meshes(pair, outline, body, grading, sag=sag, periodic=periodic)
         setup = GearPairSetup(rpm_in=1e-4, torque_out=max(torques), penalty_scale=MODEL_PENALTY, integration="full")
         model, info = helical_pair_model(pair, meshes, setup, layers, run_angle=sector)
         sp3 = StaticPair3D(model, info, pair)
@@ -171,7 +183,10 @@ if __name__ == "__main__":
                     "geometry (the explicit model's equilibrium; about 3 times the time); writes *_updated.json")
     ap.add_argument("--periodic", action="store_true", help="tooth-periodic sections (the reference mesh kind); "
                     "writes *_periodic.json")
+    ap.add_argument("--reference", action="store_true", help="the helical references' own mesh (sizes of "
+                    "ringdown_helical.json, its stored meshes; overrides the mesh options); writes *_reference.json")
     a = ap.parse_args()
     main(a.points, tuple(a.torques), a.layers, a.outline_mm * 1e-3, a.body_mm * 1e-3, sector=a.sector,
          penalties=tuple(a.penalties), sag=None if a.sag_um is None else a.sag_um * 1e-6,
-         geometry_update=a.geometry_update, start_update=not a.no_start_update, periodic=a.periodic)
+         geometry_update=a.geometry_update, start_update=not a.no_start_update, periodic=a.periodic,
+         reference=a.reference)
