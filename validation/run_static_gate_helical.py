@@ -64,6 +64,16 @@ def _tag(layers: int, outline: float, body: float, sector: float | None, sag: fl
     return tag + (f"_sector{sector:g}rad" if sector is not None else "_full") + ("_periodic" if periodic else "")
 
 
+def _coarseness(j: int, n: int) -> int:
+    """Rank of angle ``j`` of ``n`` in a coarse-to-fine order: 0 for j = 0, then 1 for the grid of 2 angles,
+    2 for the added angles of the grid of 4, and so on (the number of halvings until ``j`` is on the grid)."""
+    level, step = 0, n
+    while step > 1 and j % step:
+        step //= 2
+        level += 1
+    return level
+
+
 def main(n: int = 16, torques=(60.0, 120.0), layers: int = 8, outline: float = 0.3e-3, body: float = 2.5e-3,
          grading: float = 1.0e-3, sector: float | None = None, penalties=(0.1, 0.3, 1.0, 3.0, math.inf),
          sag: float | None = None, geometry_update: bool = False, start_update: bool = True,
@@ -98,7 +108,10 @@ def main(n: int = 16, torques=(60.0, 120.0), layers: int = 8, outline: float = 0
                            "first contact of the start position) at input angle j * mesh_period / n_points, "
                            "per contact penalty scale (inf: hard contact)")
     data.setdefault("facets", FLAT_FACETS if flat_facets_record else FACETS)
-    todo = [j for j in range(n) if not all(f"{k}/{t:g}" in pts.get(str(j), {}) for k in keys for t in torques)]
+    # coarse to fine (0, n/2, n/4, 3n/4, ...): a study stopped half way holds every other angle, a uniform
+    # grid of half the density whose orders can be read already
+    todo = sorted((j for j in range(n) if not all(f"{k}/{t:g}" in pts.get(str(j), {}) for k in keys for t in torques)),
+                  key=lambda j: (_coarseness(j, n), j))
     upd = data.setdefault("geometry_update_at_start", {})
     upd_todo = [k for k in keys if k not in upd] if start_update else []
     if todo or upd_todo:
