@@ -45,7 +45,8 @@ from gearrom.config import load_config
 from gearrom.fe.explicit.gearpair import GearPairSetup
 from gearrom.fe.explicit.helicalpair import helical_meshes, helical_pair_model
 from gearrom.fe.explicit.static3d import StaticPair3D
-from gearrom.validation.pair_rom import fe_start_mesh_phase, mesh_excitation
+from gearrom.fe.mesh2d import settings_from_section
+from gearrom.validation.pair_rom import REFERENCE_SLICES, fe_start_mesh_phase, mesh_excitation, reference_settings
 from gearrom.validation.static_gate import static_gate
 
 HERE = Path(__file__).resolve().parent
@@ -77,7 +78,8 @@ def _coarseness(j: int, n: int) -> int:
 def main(n: int = 16, torques=(60.0, 120.0), layers: int = 8, outline: float = 0.3e-3, body: float = 2.5e-3,
          grading: float = 1.0e-3, sector: float | None = None, penalties=(0.1, 0.3, 1.0, 3.0, math.inf),
          sag: float | None = None, geometry_update: bool = False, start_update: bool = True,
-         flat_facets_record: bool = False, periodic: bool = False, reference: bool = False) -> Path:
+         flat_facets_record: bool = False, periodic: bool = False, reference: bool = False,
+         solve: bool = True) -> Path:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")   # the seed pair's tip-fillet interference warning (see helicalpair)
         pair = load_config("thesis-helical").pair
@@ -114,6 +116,8 @@ def main(n: int = 16, torques=(60.0, 120.0), layers: int = 8, outline: float = 0
                   key=lambda j: (_coarseness(j, n), j))
     upd = data.setdefault("geometry_update_at_start", {})
     upd_todo = [k for k in keys if k not in upd] if start_update else []
+    if not solve:       # analyse the stored angles only
+        todo, upd_todo = [], []
     if todo or upd_todo:
         t0 = time.perf_counter()
         if reference:
@@ -145,33 +149,56 @@ def main(n: int = 16, torques=(60.0, 120.0), layers: int = 8, outline: float = 0
             upd[k] = {"torque_Nm": max(torques), "te_linear_um": pts["0"][f"{k}/{max(torques):g}"],
                       "te_updated_um": te_upd * 1e6}
             out.write_text(json.dumps(data, indent=2, default=float) + "\n")
+    # the densest uniform grid whose angles are all solved (the whole grid once the study is complete)
+    step = 1
+    while any(not all(f"{k}/{t:g}" in pts.get(str(j), {}) for k in keys for t in torques) for j in range(0, n, step)):
+        if step >= n:
+            raise SystemExit(f"{out}: not even the start angle is solved; run without --no-solve")
+        step *= 2
+    grid = list(range(0, n, step))
+    m = len(grid)
     phase0 = fe_start_mesh_phase(pair)
-    th = np.arange(n) * period / n
-    lt = {}
+    th = np.asarray(grid) * period / n
+    lt, rom = {}, {}
+    # the validation ROM's table: load-dependent, the reference strips and flank grid (gearrom validate)
+    cfg = load_config("thesis-helical")
+    fe_settings, _ = settings_from_section(cfg.section("fe"), cfg.name)
+    ex_rom, rom_label = mesh_excitation(pair, max(torques), "fe", config_name=cfg.name, torque_map=True,
+                                        settings=reference_settings(pair, fe_settings), n_slices=REFERENCE_SLICES)
     for t in torques:
         ex, label = mesh_excitation(pair, t, "fe")
         lt[t] = np.asarray(ex.ste(np.mod(phase0 + th, period), t), float)
+        rom[t] = np.asarray(ex_rom.ste(np.mod(phase0 + th, period), t), float)
         data.setdefault("ltca_um", {})[f"{t:g}"] = (lt[t] * 1e6).tolist()
-        data["ltca_table"] = label
+        data.setdefault("rom_table_um", {})[f"{t:g}"] = (rom[t] * 1e6).tolist()
+        data["ltca_table"], data["rom_table"] = label, rom_label
+    data["analysed_points"] = grid
     gates = {}
-    for k in keys:
-        fe = {t: np.array([pts[str(j)][f"{k}/{t:g}"] * 1e-6 for j in range(n)]) for t in torques}
+    for k in keys if m >= 8 else ():     # the gate's curve metrics need 8 angles or more
+        fe = {t: np.array([pts[str(j)][f"{k}/{t:g}"] * 1e-6 for j in grid]) for t in torques}
         gates[k] = static_gate(fe, lt, pair.rb[1], helical=True)
-        log.info("penalty %s: mean TE %s um against LTCA %s um; %s %s", k,
+        log.info("penalty %s (%d of %d angles): mean TE %s um against LTCA %s um; %s %s", k, m, n,
                  [round(float(fe[t].mean() * 1e6), 3) for t in torques],
                  [round(float(lt[t].mean() * 1e6), 3) for t in torques],
                  "pass" if gates[k]["passed"] else "FAIL", gates[k]["misses"])
     data["gate_by_penalty"] = gates
-    # mesh orders the angles resolve without aliasing (below n / 2): the layers' passing shows near
+
+    # mesh orders the analysed angles resolve without aliasing (below m / 2): the layers' passing shows near
     # order n_layers / eps_beta
     def orders(x):
         x = np.asarray(x, float)
-        return (np.abs(np.fft.rfft(x - x.mean()))[1:(n + 1) // 2] * 2 / n * 1e9).round(3).tolist()
+        return (np.abs(np.fft.rfft(x - x.mean()))[1:(m + 1) // 2] * 2 / m * 1e9).round(3).tolist()
 
     data["order_amplitudes_nm"] = {
-        "explicit": {k: {f"{t:g}": orders([pts[str(j)][f"{k}/{t:g}"] * 1e-6 for j in range(n)]) for t in torques}
+        "explicit": {k: {f"{t:g}": orders([pts[str(j)][f"{k}/{t:g}"] * 1e-6 for j in grid]) for t in torques}
                      for k in keys},
-        "ltca": {f"{t:g}": orders(lt[t]) for t in torques}}
+        "ltca": {f"{t:g}": orders(lt[t]) for t in torques}, "rom_table": {f"{t:g}": orders(rom[t]) for t in torques},
+        "n_angles": m}
+    t_op = min(torques, key=lambda t: abs(t - 120.0))      # the references' operating torque
+    for k in keys:
+        log.info("penalty %s, orders 1-%d at %g N m: explicit %s nm, validation ROM table %s nm", k, (m - 1) // 2,
+                 t_op, data["order_amplitudes_nm"]["explicit"][k][f"{t_op:g}"],
+                 data["order_amplitudes_nm"]["rom_table"][f"{t_op:g}"])
     data["machine"] = {"cpu_count": os.cpu_count(), "platform": platform.platform(), "load_average": os.getloadavg()}
     out.write_text(json.dumps(data, indent=2, default=float) + "\n")
     return out
@@ -196,10 +223,12 @@ if __name__ == "__main__":
                     "geometry (the explicit model's equilibrium; about 3 times the time); writes *_updated.json")
     ap.add_argument("--periodic", action="store_true", help="tooth-periodic sections (the reference mesh kind); "
                     "writes *_periodic.json")
+    ap.add_argument("--no-solve", action="store_true", help="analyse the angles already stored (the densest "
+                    "complete uniform grid of them), solve nothing")
     ap.add_argument("--reference", action="store_true", help="the helical references' own mesh (sizes of "
                     "ringdown_helical.json, its stored meshes; overrides the mesh options); writes *_reference.json")
     a = ap.parse_args()
     main(a.points, tuple(a.torques), a.layers, a.outline_mm * 1e-3, a.body_mm * 1e-3, sector=a.sector,
          penalties=tuple(a.penalties), sag=None if a.sag_um is None else a.sag_um * 1e-6,
          geometry_update=a.geometry_update, start_update=not a.no_start_update, periodic=a.periodic,
-         reference=a.reference)
+         reference=a.reference, solve=not a.no_solve)
