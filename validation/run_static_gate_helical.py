@@ -4,6 +4,11 @@ Usage::
 
     python validation/run_static_gate_helical.py [--points 16] [--torques 60 120] [--layers 8]
         [--outline-mm 0.3] [--sag-um S] [--body-mm 2.5] [--sector RAD] [--penalties 0.1 0.3 1 3 inf]
+        [--reference] [--no-solve]
+
+``--reference`` takes the helical references' own stored mesh (``ringdown_helical.json``'s sizes); ``--no-solve``
+analyses the angles stored so far (the angles are solved coarse to fine, so a study stopped half way holds a
+uniform grid of half the density).
 
 The explicit model is the helical references' kind (:func:`gearrom.fe.explicit.helicalpair.helical_pair_model`:
 transverse Q4 outline on the generated profile extruded in twisted Hex8 layers, fully integrated, two-pass
