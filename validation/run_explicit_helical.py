@@ -79,7 +79,7 @@ def loaded_case(rpm: float, periods: int = 10, settle_periods: int | None = None
     pair = cfg.pair
     if not pair.is_helical:
         sys.exit(f"{config}: not a helical pair (run_explicit_spur.py makes the spur references)")
-    meshes = reference_meshes(pair, mesh) if stored else helical_meshes(
+    meshes = reference_meshes(pair, mesh, record_prefix(pair, cfg.name)) if stored else helical_meshes(
         pair, mesh["outline_size_m"], mesh["body_size_m"], mesh["grading_m"], sag=mesh["sag_m"],
         periodic=mesh.get("periodic", False))
     f_mesh = rpm / 60 * pair.z[0]

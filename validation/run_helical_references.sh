@@ -1,6 +1,7 @@
 #!/bin/sh
-# The helical ROM-vs-FE references (loaded start, calibrated damping, whole bodies) at 2000 and then 1250 rpm,
-# then the drawing micro-geometry (thesis-helical-drawing) at 2000 rpm, each on both cores (the threaded loop:
+# The helical ROM-vs-FE references (loaded start, calibrated damping, whole bodies): the drawing micro-geometry
+# (thesis-helical-drawing) at 2000 rpm first, whose GMF lines stand well above both models' discretization
+# ripple (docs/validation.md), then the perfect pair at 2000 and 1250 rpm, each on both cores (the threaded loop:
 # on the 3D model it is more than twice the serial speed). Each run checkpoints into validation/checkpoints/
 # and resumes when started again; progress, ETA and the energy balance go to
 # validation/checkpoints/helical[-<config>]_<rpm>rpm_loaded.log. Needs validation/ringdown_helical.json
@@ -17,6 +18,6 @@ run() {  # $1: config, $2: rpm, $3: record prefix
         >> "validation/checkpoints/${3}_${2}rpm_loaded.log" 2>&1
 }
 EXTRA="$*"
+run thesis-helical-drawing 2000 helical-thesis-helical-drawing
 run thesis-helical 2000 helical
 run thesis-helical 1250 helical
-run thesis-helical-drawing 2000 helical-thesis-helical-drawing

@@ -101,11 +101,13 @@ def settling(cal: dict, f_mesh: float, decay_times: float = 5.0) -> tuple[float,
     return alpha, zeta, f_mode, tau, math.ceil(decay_times * tau * f_mesh)
 
 
-def reference_meshes(pair, mesh: dict = REFERENCE_MESH):
+def reference_meshes(pair, mesh: dict = REFERENCE_MESH, prefix: str | None = None):
     """The two gear meshes of the reference model (transverse sections of a helical pair), stored in
-    ``checkpoints/<spur|helical>_reference_meshes.npz`` on first use and read from there afterwards: a
+    ``checkpoints/<prefix>_reference_meshes.npz`` on first use and read from there afterwards: a
     checkpointed reference resumed on another machine rebuilds the same model bit for bit, whatever gmsh
-    makes there (:func:`gearrom.fe.explicit.gearpair.stored_meshes`)."""
+    makes there (:func:`gearrom.fe.explicit.gearpair.stored_meshes`). ``prefix``: the records' prefix
+    (:func:`gearrom.validation.records.record_prefix`; default ``spur`` / ``helical``), so that pairs with
+    micro-geometry keep their own file and never replace the meshes another pair's checkpoint was made on."""
     import hashlib
 
     def build():
@@ -116,7 +118,7 @@ def reference_meshes(pair, mesh: dict = REFERENCE_MESH):
                                periodic=mesh.get("periodic", False)) for i in (0, 1)]
 
     key = hashlib.sha1((repr(pair) + repr(sorted(mesh.items()))).encode()).hexdigest()
-    kind = "helical" if pair.is_helical else "spur"
+    kind = prefix or ("helical" if pair.is_helical else "spur")
     return stored_meshes(CHECKPOINTS / f"{kind}_reference_meshes.npz", key, build)
 
 
