@@ -79,7 +79,8 @@ def loaded_case(rpm: float, periods: int = 10, settle_periods: int | None = None
     pair = cfg.pair
     if not pair.is_helical:
         sys.exit(f"{config}: not a helical pair (run_explicit_spur.py makes the spur references)")
-    meshes = reference_meshes(pair, mesh, record_prefix(pair, cfg.name)) if stored else helical_meshes(
+    prefix = record_prefix(pair, cfg.name)
+    meshes = reference_meshes(pair, mesh, prefix) if stored else helical_meshes(
         pair, mesh["outline_size_m"], mesh["body_size_m"], mesh["grading_m"], sag=mesh["sag_m"],
         periodic=mesh.get("periodic", False))
     f_mesh = rpm / 60 * pair.z[0]
@@ -87,7 +88,7 @@ def loaded_case(rpm: float, periods: int = 10, settle_periods: int | None = None
     if settle_periods is None:
         settle_periods = settle_default
     setup = reference_setup(mesh, rpm_in=rpm, torque_out=120.0, mu=0.0, start="loaded", relative_damping=alpha)
-    stem = record_stem(out_dir, rpm, record_prefix(pair, cfg.name), "loaded")
+    stem = record_stem(out_dir, rpm, prefix, "loaded")
     return SimpleNamespace(cfg=cfg, pair=pair, cal=cal, stored=stored, mesh=mesh, meshes=meshes, f_mesh=f_mesh,
                            alpha=alpha, zeta=zeta, f_mode=f_mode, tau=tau, settle_periods=settle_periods,
                            periods=periods, t_end=(settle_periods + periods) / f_mesh, setup=setup, stem=stem,

@@ -23,11 +23,12 @@ import sys
 import tempfile
 import warnings
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 
 from gearrom.fe.explicit.driver import prepare
-from gearrom.fe.explicit.gearpair import polar_inertias
+from gearrom.fe.explicit.gearpair import polar_inertias, transmission_error
 from gearrom.fe.explicit.helicalpair import helical_pair_model
 from gearrom.fe.explicit.result import ENERGY_NAMES
 from gearrom.validation.records import pair_key
@@ -61,7 +62,7 @@ def main(rpm: float, config: str = "thesis-helical", settle: int = 1, out: Path 
     model, info = helical_pair_model(case.pair, case.meshes, case.setup, case.mesh["n_layers"], run_angle=None)
     d = prepare(model, 0.9, case.mesh["max_candidates"])
     j1, j2 = polar_inertias(model, d["mass"], info["n_nodes_gear1"])
-    te = info["rb"][0] * theta[:, 0] + info["rb"][1] * (theta[:, 1] - info["clearance_angle"])
+    te = transmission_error(SimpleNamespace(theta=theta), info["rb"], info["clearance_angle"])
     meta = {"config": case.cfg.name, "pair_key": pair_key(case.pair), "rpm_in": rpm, "torque_out_Nm": 120.0,
             "mu": 0.0, "start": "loaded", "mesh_frequency_Hz": case.f_mesh, "ramp_s": 0.0,
             "t_steady_from_s": settle / case.f_mesh, "t_end_s": float(t[-1]), "settle_periods": settle,

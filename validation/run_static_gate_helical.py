@@ -70,14 +70,18 @@ def _tag(layers: int, outline: float, body: float, sector: float | None, sag: fl
     return tag + (f"_sector{sector:g}rad" if sector is not None else "_full") + ("_periodic" if periodic else "")
 
 
+def _steps(n: int) -> list[int]:
+    """Angle steps of the coarse-to-fine grids of ``n`` angles: n, n // 2, n // 4, ..., 1."""
+    steps = [n]
+    while steps[-1] > 1:
+        steps.append(steps[-1] // 2)
+    return steps
+
+
 def _coarseness(j: int, n: int) -> int:
     """Rank of angle ``j`` of ``n`` in a coarse-to-fine order: 0 for j = 0, then 1 for the grid of 2 angles,
-    2 for the added angles of the grid of 4, and so on (the number of halvings until ``j`` is on the grid)."""
-    level, step = 0, n
-    while step > 1 and j % step:
-        step //= 2
-        level += 1
-    return level
+    2 for the added angles of the grid of 4, and so on (the first of :func:`_steps` that ``j`` is on)."""
+    return next(i for i, s in enumerate(_steps(n)) if j % s == 0)
 
 
 def main(n: int = 16, torques=(60.0, 120.0), layers: int = 8, outline: float = 0.3e-3, body: float = 2.5e-3,
@@ -117,8 +121,10 @@ def main(n: int = 16, torques=(60.0, 120.0), layers: int = 8, outline: float = 0
     data.setdefault("facets", FLAT_FACETS if flat_facets_record else FACETS)
     # coarse to fine (0, n/2, n/4, 3n/4, ...): a study stopped half way holds every other angle, a uniform
     # grid of half the density whose orders can be read already
-    todo = sorted((j for j in range(n) if not all(f"{k}/{t:g}" in pts.get(str(j), {}) for k in keys for t in torques)),
-                  key=lambda j: (_coarseness(j, n), j))
+    def solved(j: int) -> bool:
+        return all(f"{k}/{t:g}" in pts.get(str(j), {}) for k in keys for t in torques)
+
+    todo = sorted((j for j in range(n) if not solved(j)), key=lambda j: (_coarseness(j, n), j))
     upd = data.setdefault("geometry_update_at_start", {})
     upd_todo = [k for k in keys if k not in upd] if start_update else []
     if not solve:       # analyse the stored angles only
@@ -154,12 +160,10 @@ def main(n: int = 16, torques=(60.0, 120.0), layers: int = 8, outline: float = 0
             upd[k] = {"torque_Nm": max(torques), "te_linear_um": pts["0"][f"{k}/{max(torques):g}"],
                       "te_updated_um": te_upd * 1e6}
             out.write_text(json.dumps(data, indent=2, default=float) + "\n")
-    # the densest uniform grid whose angles are all solved (the whole grid once the study is complete)
-    step = 1
-    while any(not all(f"{k}/{t:g}" in pts.get(str(j), {}) for k in keys for t in torques) for j in range(0, n, step)):
-        if step >= n:
-            raise SystemExit(f"{out}: not even the start angle is solved; run without --no-solve")
-        step *= 2
+    # the densest uniform grid of the solve order whose angles are all solved (all of them once complete)
+    step = next((s for s in reversed(_steps(n)) if n % s == 0 and all(solved(j) for j in range(0, n, s))), None)
+    if step is None:
+        raise SystemExit(f"{out}: not even the start angle is solved; run without --no-solve")
     grid = list(range(0, n, step))
     m = len(grid)
     phase0 = fe_start_mesh_phase(pair)
