@@ -36,9 +36,10 @@ def add_args(parser) -> None:
                              "damping (spur_<rpm>rpm_loaded.*), fully integrated Q4 from a gap without damping "
                              "(spur_<rpm>rpm_full.*) or one-point Q4 with hourglass control (spur_<rpm>rpm.*); "
                              "default: per speed the first of these that is stored")
-    parser.add_argument("--rom", choices=("pair", "exudyn"), default=None,
-                        help="reduced model: 1-DOF pair ROM with the FE's torque ramp or the same system as an exudyn "
-                             "Drivetrain (the project's drivetrain ROM); default: exudyn for loaded-start records, "
+    parser.add_argument("--rom", choices=("pair", "exudyn", "exudyn-bodies"), default=None,
+                        help="reduced model: 1-DOF pair ROM with the FE's torque ramp, the same system as an exudyn "
+                             "Drivetrain (the project's drivetrain ROM), or that Drivetrain with flexible gear bodies "
+                             "(rim on hub, from the FE's meshes); default: exudyn for loaded-start records, "
                              "pair for the others")
     parser.add_argument("--damping-ratio", type=float, default=None,
                         help="ROM mesh damping ratio (default: the FE record's: its calibrated ratio for loaded-start "

@@ -52,12 +52,12 @@ from gearrom.validation.pair_rom import PairRomResult, PairRomSetup, fe_start_me
 
 log = logging.getLogger(__name__)
 
-__all__ = ["pair_drivetrain", "simulate_pair_exudyn"]
+__all__ = ["body_drivetrain", "mesh_mode", "pair_drivetrain", "simulate_pair_exudyn"]
 
 
 def pair_drivetrain(pair, excitation, setup: PairRomSetup, *, input_inertia_ratio: float = 1e6,
                     speed_loop_hz: float = 50.0, backlash: float = 1e-3, max_step: float = 2e-6,
-                    name: str = "explicit-fe-pair") -> Drivetrain:
+                    name: str = "explicit-fe-pair", bodies: tuple | None = None) -> Drivetrain:
     """The explicit FE's gear-pair system (the pair ROM's) as a :class:`~gearrom.rom.model.Drivetrain`.
 
     Parameters
@@ -82,6 +82,9 @@ def pair_drivetrain(pair, excitation, setup: PairRomSetup, *, input_inertia_rati
         Largest time step of :func:`~gearrom.rom.simulate.simulate_run` [s].
     name : str
         Model name.
+    bodies : (GearBody, GearBody), optional
+        Flexible gear bodies (:mod:`gearrom.fe.bodies`, input and output; the output's inertia is taken as
+        ``setup.inertia_out``): :func:`body_drivetrain`.
 
     Returns
     -------
@@ -98,6 +101,9 @@ def pair_drivetrain(pair, excitation, setup: PairRomSetup, *, input_inertia_rati
                      ("backlash", backlash), ("max_step", max_step)):
         if not (val > 0 and math.isfinite(val)):
             raise ModelError(f"pair_drivetrain: {key} must be a positive finite number, got {val!r}")
+    if bodies is not None:
+        return body_drivetrain(pair, excitation, setup, bodies, input_inertia_ratio=input_inertia_ratio,
+                               speed_loop_hz=speed_loop_hz, backlash=backlash, max_step=max_step, name=name)
     rb1, rb2 = pair.rb
     z1, z2 = pair.z
     j2 = float(setup.inertia_out)
@@ -117,6 +123,87 @@ def pair_drivetrain(pair, excitation, setup: PairRomSetup, *, input_inertia_rati
         motor_station="in.gear", load_station=None, cutoff_frequency=math.inf, max_step=float(max_step),
         metadata={"config": name, "torque_out_Nm": float(setup.torque_out), "input_inertia_kgm2": j1,
                   "inertia_out_kgm2": j2, "speed_loop_hz": float(speed_loop_hz)})
+
+
+def body_drivetrain(pair, excitation, setup: PairRomSetup, bodies: tuple, *, input_inertia_ratio: float = 1e6,
+                    speed_loop_hz: float = 50.0, backlash: float = 1e-3, max_step: float = 2e-6,
+                    name: str = "explicit-fe-pair-bodies") -> Drivetrain:
+    """The pair system of :func:`pair_drivetrain` with flexible gear bodies (:mod:`gearrom.fe.bodies`).
+
+    Each gear is a hub (``in.hub`` / ``out.hub``: the FE's bore reference) and a rim (``in.gear`` /
+    ``out.gear``: the mesh acts on it) joined by the body's torsional spring (a
+    :class:`~gearrom.rom.components.Clutch`): the input hub carries the flywheel and the speed loop, the output
+    hub the rest of the output inertia ``setup.inertia_out`` and the resisting torque. The mesh table loses
+    both bodies' compliance (:func:`gearrom.fe.bodies.without_body_compliance`), so the static TE between the
+    hubs is the table's. Encoders: ``sensor`` side on the hubs (the TE the FE measures), ``clutch`` side on the
+    rims. Each body spring has a dashpot of ``setup.damping_ratio`` at its own mode, and the mesh dashpot is
+    set so that the mesh mode of the linearised model has the ratio ``setup.damping_ratio``.
+    """
+    from gearrom.fe.bodies import without_body_compliance
+    from gearrom.rom.components import Clutch
+
+    for key, val in (("input_inertia_ratio", input_inertia_ratio), ("speed_loop_hz", speed_loop_hz),
+                     ("backlash", backlash), ("max_step", max_step)):
+        if not (val > 0 and math.isfinite(val)):
+            raise ModelError(f"body_drivetrain: {key} must be a positive finite number, got {val!r}")
+    b1, b2 = bodies[0], bodies[1].with_inertia(float(setup.inertia_out))
+    rb1, rb2 = pair.rb
+    z1, z2 = pair.z
+    zeta = float(setup.damping_ratio)
+    j1 = float(input_inertia_ratio) * b2.inertia * rb1**2 / rb2**2
+    wc = 2 * math.pi * float(speed_loop_hz)
+    spin2 = -z1 / z2
+    stations = (Station("in.hub", "in", 0.0, 1, 1.0), Station("in.gear", "in", 0.0, 1, 1.0),
+                Station("out.gear", "out", 0.0, 1, spin2), Station("out.hub", "out", 0.0, 1, spin2))
+
+    def springs(z):
+        return tuple(Clutch(a, b, body.stiffness, 2 * z * math.sqrt(body.stiffness * body.rim_inertia))
+                     for a, b, body in (("in.hub", "in.gear", b1), ("out.gear", "out.hub", b2)))
+
+    masses = (Disk("in.hub", 0.0, j1 + b1.hub_inertia, 0.0), Disk("in.gear", 0.0, b1.rim_inertia, 0.0),
+              Disk("out.gear", 0.0, b2.rim_inertia, 0.0), Disk("out.hub", 0.0, b2.hub_inertia, 0.0),
+              Motor("in.hub", 0.0, c_speed=2 * 0.7 * j1 * wc, k_i=j1 * wc**2))
+    encoders = (Encoder("in.sensor", "in.hub", rb1, "sensor", "in"), Encoder("out.sensor", "out.hub", rb2, "sensor", "out"),
+                Encoder("in.rim", "in.gear", rb1, "clutch", "in"), Encoder("out.rim", "out.gear", rb2, "clutch", "out"))
+    table = without_body_compliance(excitation, (b1, b2), pair.rb)
+
+    def build(mesh_zeta):
+        return Drivetrain(
+            name=name, pair=pair, stations=stations, components=masses + springs(zeta),
+            mesh=MeshSpec(("in.gear", "out.gear"), mesh_zeta, float(backlash)), excitation=table, encoders=encoders,
+            motor_station="in.hub", load_station="out.hub", cutoff_frequency=math.inf, max_step=float(max_step),
+            metadata={"config": name, "torque_out_Nm": float(setup.torque_out), "input_inertia_kgm2": j1,
+                      "inertia_out_kgm2": b2.inertia, "speed_loop_hz": float(speed_loop_hz), "bodies": True,
+                      "body_frequency_Hz": (b1.frequency, b2.frequency),
+                      "rim_inertia_kgm2": (b1.rim_inertia, b2.rim_inertia),
+                      "body_stiffness_Nm_per_rad": (b1.stiffness, b2.stiffness)})
+
+    # the mesh mode's damping ratio is affine in the mesh dashpot (light damping): two trial models give the
+    # dashpot of the target ratio
+    r0, f_mode = mesh_mode(build(0.0), setup.torque_out)
+    r1, _ = mesh_mode(build(max(zeta, 1e-3)), setup.torque_out)
+    mesh_zeta = max(zeta, 1e-3) * (zeta - r0) / (r1 - r0) if r1 != r0 else zeta
+    model = build(max(mesh_zeta, 0.0))
+    ratio, f_mode = mesh_mode(model, setup.torque_out)
+    model.metadata.update(mesh_mode_Hz=f_mode, mesh_mode_damping_ratio=ratio, mesh_damping_ratio_parameter=mesh_zeta)
+    return model
+
+
+def mesh_mode(model: Drivetrain, torque_out: float) -> tuple[float, float]:
+    """Damping ratio [-] and frequency [Hz] of the mode of ``model`` linearised at ``torque_out`` [N m] with the
+    largest mesh deflection per unit modal energy (the mesh mode)."""
+    from scipy.linalg import eig
+
+    M, K, D = model.linear(0.0, torque_out)
+    n = M.shape[0]
+    A = np.block([[np.zeros((n, n)), np.eye(n)], [-np.linalg.solve(M, K), -np.linalg.solve(M, D)]])
+    lam, vec = eig(A)
+    osc = np.flatnonzero(lam.imag > 1.0)
+    x = vec[:n, osc]
+    energy = np.real(np.einsum("ij,ij->j", x.conj(), K @ x))
+    share = np.abs(model.w @ x) ** 2 * model.mesh_stiffness(torque_out) / np.maximum(energy, 1e-300)
+    j = osc[int(np.argmax(share))]
+    return float(-lam[j].real / abs(lam[j])), float(abs(lam[j]) / (2 * math.pi))
 
 
 def simulate_pair_exudyn(pair, excitation, setup: PairRomSetup, t_end: float, sample_period: float, *,
@@ -199,6 +286,9 @@ def simulate_pair_exudyn(pair, excitation, setup: PairRomSetup, t_end: float, sa
     rb1 = pair.rb[0]
     j_in = run.encoders.index("in.sensor")
     dev = rb1 * (run.theta[j_in][keep] - (phi0 + om * t))
+    te = run.delta[keep]
+    if model.metadata.get("bodies"):        # the TE between the hubs (the FE's bore references)
+        te = te + (run.dte["sensor"] - run.dte["clutch"])[keep]
     meta = {"model": "exudyn Drivetrain (in.gear flywheel + PI speed loop, out.gear J2 only, 1-DOF stations), "
                      "modal reduction without truncation, exudyn RK44 (gearrom.rom.simulate.simulate_run)",
             "rpm_in": setup.rpm_in, "torque_out_Nm": setup.torque_out, "inertia_out_kgm2": setup.inertia_out,
@@ -211,4 +301,10 @@ def simulate_pair_exudyn(pair, excitation, setup: PairRomSetup, t_end: float, sa
             "excitation_definition": excitation.definition,
             **{k: run.metadata[k] for k in ("n_steps", "modes_kept", "wall_s", "cpu_s", "simulated_s")}}
     log.info("exudyn pair model: %d steps of %.3g s in %.2f s wall", meta["n_steps"], meta["dt_s"], meta["wall_s"])
-    return PairRomResult(t=t, theta_in=om * t, te=run.delta[keep], force=run.force[keep], meta=meta)
+    for key in ("body_frequency_Hz", "rim_inertia_kgm2", "body_stiffness_Nm_per_rad", "mesh_mode_Hz",
+                "mesh_mode_damping_ratio", "mesh_damping_ratio_parameter"):
+        if key in model.metadata:
+            meta[key] = model.metadata[key]
+    if model.metadata.get("bodies"):
+        meta["model"] = meta["model"].replace("out.gear J2 only", "gear bodies as rim on hub (gearrom.fe.bodies)")
+    return PairRomResult(t=t, theta_in=om * t, te=te, force=run.force[keep], meta=meta)

@@ -50,6 +50,23 @@ def output_inertia(pair, outline_size: float, body_size: float, grading: float |
     return j, f"rho b int r^2 dA over the FE output-gear quad mesh ({outline_size * 1e3:g}/{body_size * 1e3:g} mm)"
 
 
+def gear_bodies(pair, outline_size: float, body_size: float, grading: float | None = None,
+                project: bool = False) -> tuple:
+    """The rim-on-hub body models (:func:`gearrom.fe.bodies.gear_body`) of both gears from the explicit FE's own
+    transverse meshes (sizes as :func:`output_inertia`)."""
+    from gearrom.fe.bodies import gear_body
+    from gearrom.fe.explicit.gearmesh import gear_quad_mesh
+
+    kw = {} if grading is None else {"grading": grading}
+    width = min(g.face_width for g in pair.gears)
+    out = []
+    for i, g in enumerate(pair.gears):
+        nodes, quads, bore = gear_quad_mesh(pair, i, outline_size, body_size, project=project, **kw)
+        out.append(gear_body(nodes, quads, bore, width, E=g.material.youngs_modulus, nu=g.material.poisson_ratio,
+                             density=g.material.density))
+    return tuple(out)
+
+
 def fresh_fe_record(pair, rpm: float, torque: float, outline: float = 0.3e-3, body: float = 2e-3,
                     ramp: float = 0.3e-3, settle_periods: int = 1, periods: int = 3) -> FERecord:
     """Run a coarse explicit FE of the pair now (minutes): same set-up as the stored runs, coarser mesh."""
@@ -143,13 +160,15 @@ def facet_kinematic_te(pair, excitation, torque: float, outline: float, body: fl
 def validate_speed(pair, rpm: float, fe: FERecord, excitation, excitation_label: str, inertia_out: float,
                    inertia_label: str, damping_ratio: float = 0.01,
                    kinematic: tuple[float, np.ndarray] | None = None,
-                   table_provenance: dict | None = None, rom_model: str = "pair") -> SpeedComparison:
+                   table_provenance: dict | None = None, rom_model: str = "pair",
+                   bodies: tuple | None = None) -> SpeedComparison:
     """Run the pair ROM for the FE record's set-up and compare both on the FE's steady window.
 
     ``rom_model``: ``"pair"`` (the 1-DOF RK4 model of :mod:`gearrom.validation.pair_rom`, with the FE's
     torque ramp) or ``"exudyn"`` (the same system as an exudyn Drivetrain through
     :func:`gearrom.rom.simulate.simulate_run`, :mod:`gearrom.validation.pair_exudyn`; starts at full
-    torque from the periodic state). The diagnostics below always use the pair ROM.
+    torque from the periodic state) or ``"exudyn-bodies"`` (that Drivetrain with flexible gear bodies ``bodies``,
+    :func:`gearrom.validation.pair_exudyn.body_drivetrain`). The diagnostics below always use the pair ROM.
 
     ``kinematic``: optional (step, values) kinematic TE over the input angle (the FE outline facets).
     ``table_provenance``: where the mesh table came from (written to the ROM metadata as ``table``).
@@ -163,10 +182,13 @@ def validate_speed(pair, rpm: float, fe: FERecord, excitation, excitation_label:
     if rom_model not in ROM_MODELS:
         raise ConfigError(f"rom_model must be one of {ROM_MODELS}, got {rom_model!r}")
     span = {"t_end": float(fe.t[-1]), "sample_period": 1.0 / (f_mesh * 128)}
-    if rom_model == "exudyn":
-        from gearrom.validation.pair_exudyn import simulate_pair_exudyn
+    if rom_model in ("exudyn", "exudyn-bodies"):
+        from gearrom.validation.pair_exudyn import pair_drivetrain, simulate_pair_exudyn
 
-        rom = simulate_pair_exudyn(pair, excitation, setup, kinematic=kinematic, **span)
+        if rom_model == "exudyn-bodies" and bodies is None:
+            raise ConfigError("rom_model 'exudyn-bodies' needs the gear bodies")
+        model = pair_drivetrain(pair, excitation, setup, bodies=bodies if rom_model == "exudyn-bodies" else None)
+        rom = simulate_pair_exudyn(pair, excitation, setup, kinematic=kinematic, model=model, **span)
     else:
         rom = simulate_pair_rom(pair, excitation, setup, kinematic=kinematic, **span)
     t_from = float(fe.meta["t_steady_from_s"])
@@ -244,7 +266,8 @@ class ValidationReport:
         n = len(self.speeds)
         fig, axes = subplots(n, 2, figsize=(11, 3.2 * n), squeeze=False)
         for row, s in zip(axes, self.speeds):
-            rom_label = "exudyn ROM" if s.rom_meta.get("rom_model") == "exudyn" else "pair ROM"
+            rom_label = {"exudyn": "exudyn ROM", "exudyn-bodies": "exudyn ROM, flexible bodies"}.get(
+                s.rom_meta.get("rom_model"), "pair ROM")
             z1 = s.rom_meta.get("z1") or int(round(2 * math.pi * s.rom_meta["mesh_frequency_Hz"] / (s.rpm_in * 2 * math.pi / 60)))
             for lab, th, te, w, st in (("explicit FE", s.fe.theta_in, s.fe.te, s.fe_window, "k-"),
                                        (rom_label, s.rom_theta_in, s.rom_te, s.rom_window, "C1--")):
@@ -267,7 +290,7 @@ class ValidationReport:
 #: mesh tables of :func:`validate`: the quasi-static LTCA (default) or the LTCA at the explicit FE's static compliance
 TABLES = ("ltca", "explicit_scaled")
 #: reduced models of :func:`validate`: the 1-DOF pair ROM (default) or the same system as an exudyn Drivetrain
-ROM_MODELS = ("pair", "exudyn")
+ROM_MODELS = ("pair", "exudyn", "exudyn-bodies")
 
 
 def validate(config: str, rpms, fe_dir: str | Path | None = None, fresh: bool = False,
@@ -304,8 +327,9 @@ def validate(config: str, rpms, fe_dir: str | Path | None = None, fresh: bool = 
         :func:`gearrom.validation.explicit_table.explicit_scaled_excitation`; spur pairs, stored records,
         facets and the LTCA table only. Its provenance is written to each speed's ``rom.table``.
     rom_model : str, optional
-        ``"pair"`` (1-DOF RK4, the FE's torque ramp) or ``"exudyn"`` (the project's drivetrain ROM of the
-        same system: :mod:`gearrom.validation.pair_exudyn`), see :func:`validate_speed`. Default: "exudyn"
+        ``"pair"`` (1-DOF RK4, the FE's torque ramp), ``"exudyn"`` (the project's drivetrain ROM of the
+        same system: :mod:`gearrom.validation.pair_exudyn`) or ``"exudyn-bodies"`` (the same with flexible gear
+        bodies from the FE's meshes, :func:`gear_bodies`), see :func:`validate_speed`. Default: "exudyn"
         for loaded-start records (both start loaded at speed), "pair" for the others.
     fe_integration : str, optional
         Stored records of the explicit FE with ``"full"`` (fully integrated Q4, no hourglass energy:
@@ -353,6 +377,7 @@ def validate(config: str, rpms, fe_dir: str | Path | None = None, fresh: bool = 
     fe_settings, _ = settings_from_section(cfg.section("fe"), str(cfg.source or cfg.name))
     speeds = []
     cache: dict = {}
+    cache_bodies: dict = {}
     for rpm, fe in records.items():
         torque = float(fe.meta["torque_out_Nm"])
         loaded = fe.meta.get("start") == "loaded"       # the references: the sweep's load-dependent table
@@ -382,8 +407,16 @@ def validate(config: str, rpms, fe_dir: str | Path | None = None, fresh: bool = 
                                      rpm * 2 * math.pi / 60 * float(fe.t[-1]))
         zeta = fe_damping_ratio(fe) if damping_ratio is None else float(damping_ratio)
         model = rom_model or ("exudyn" if fe.meta.get("start") == "loaded" else "pair")
+        bodies = None
+        if model == "exudyn-bodies":
+            if key not in cache_bodies:
+                cache_bodies[key] = gear_bodies(pair, key[0] * 1e-3, key[1] * 1e-3,
+                                                None if key[2] is None else key[2] * 1e-3, project=on_profile)
+            bodies = cache_bodies[key]
+            if "inertia_in_kgm2" in fe.meta:        # the run's own input gear (mass scaling included)
+                bodies = (bodies[0].with_inertia(float(fe.meta["inertia_in_kgm2"])), bodies[1])
         s = validate_speed(pair, rpm, fe, ex, ex_label, j2, j_label, zeta, kinematic=kin,
-                           table_provenance=provenance, rom_model=model)
+                           table_provenance=provenance, rom_model=model, bodies=bodies)
         s.rom_meta["z1"] = pair.z[0]
         speeds.append(s)
     return ValidationReport(cfg.name, speeds)
