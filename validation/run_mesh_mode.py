@@ -13,8 +13,9 @@ the input bore is held.
 This script computes, from the same gear meshes as the reference model (Q4, plane strain times the face
 width, steel of :class:`gearrom.fe.explicit.model.Material`):
 
-1. each gear's bore-clamped torsional modes (scikit-fem, consistent mass) with the effective inertia of each
-   about the axis, ``J_j = (phi_j^T M r)^2`` for mass-normalised ``phi_j`` and the rigid rotation field ``r``
+1. each gear's bore-clamped torsional modes (:mod:`gearrom.fe.bodies`: scikit-fem, consistent mass) with the
+   effective inertia of each about the axis, ``J_j = (phi_j^T M r)^2`` for mass-normalised ``phi_j`` and the
+   rigid rotation field ``r``
    (``sum_j J_j`` over all modes is the gear's inertia without the bore);
 2. a body model of each gear: its first torsional mode as a rim of inertia ``J_r`` on a torsional spring
    ``k_b = J_r w_b^2`` to the hub (the bore), the rest of the inertia on the hub;
@@ -42,63 +43,6 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 log = logging.getLogger("run_mesh_mode")
-
-
-def body_modes(nodes: np.ndarray, quads: np.ndarray, bore: np.ndarray, width: float, n_modes: int = 12,
-               material=None) -> dict:
-    """Bore-clamped modes of one gear (plane strain, ``width`` thick): frequencies and effective inertias
-    about the gear axis (the mesh's origin)."""
-    import scipy.sparse.linalg as sla
-    from skfem import Basis, BilinearForm, ElementQuad1, ElementVector, MeshQuad1, condense
-    from skfem.helpers import dot
-    from skfem.models.elasticity import lame_parameters, linear_elasticity
-
-    from gearrom.fe.explicit.model import Material
-
-    mat = material or Material()
-    mesh = MeshQuad1(np.ascontiguousarray(nodes.T), np.ascontiguousarray(quads.T))
-    basis = Basis(mesh, ElementVector(ElementQuad1()))
-    lam, mu = lame_parameters(mat.E, mat.nu)     # plane strain
-    K = width * linear_elasticity(lam, mu).assemble(basis)
-
-    @BilinearForm
-    def mass(u, v, w):
-        return mat.rho * width * dot(u, v)
-
-    M = mass.assemble(basis)
-    # nodal DOFs of ElementVector(Quad1): x of node i at 2 i, y at 2 i + 1
-    fixed = np.sort(np.concatenate([2 * np.asarray(bore), 2 * np.asarray(bore) + 1]))
-    free = np.setdiff1d(np.arange(K.shape[0]), fixed)
-    Kf, Mf = K[free][:, free].tocsc(), M[free][:, free].tocsc()
-    rot = np.zeros(K.shape[0])
-    rot[0::2], rot[1::2] = -nodes[:, 1], nodes[:, 0]
-    r = rot[free]
-    # the static mode: the body's deflection under the inertia load of a unit angular acceleration (M r), scaled
-    # to a unit mass-weighted mean rotation r^T M psi / r^T M r = 1
-    psi = sla.spsolve(Kf, Mf @ r)
-    psi /= (r @ (Mf @ psi)) / (r @ (Mf @ r))
-    static = {"k_body_Nm_per_rad": float(psi @ (Kf @ psi)), "M_qq_kgm2": float(psi @ (Mf @ psi))}
-    w2, phi = sla.eigsh(Kf, k=n_modes, M=Mf, sigma=0.0, which="LM")
-    order = np.argsort(w2)
-    w2, phi = w2[order], phi[:, order]
-    phi = phi / np.sqrt(np.einsum("ij,ij->j", phi, Mf @ phi))
-    gamma = phi.T @ (Mf @ r)
-    J_free = float(r @ (Mf @ r))
-    J_all = float(rot @ (M @ rot))
-    return {"frequency_Hz": (np.sqrt(np.maximum(w2, 0.0)) / (2 * np.pi)).tolist(),
-            "effective_inertia_kgm2": (gamma ** 2).tolist(), "inertia_without_bore_kgm2": J_free,
-            "inertia_kgm2": J_all, "n_dofs_free": int(free.size), "static_mode": static}
-
-
-def torsional_body(modes: dict) -> dict:
-    """The body model of one gear: its mode of largest effective inertia as the rim (``J_r``, ``k_b``), the rest
-    of the gear's inertia on the hub."""
-    J = np.asarray(modes["effective_inertia_kgm2"])
-    j = int(np.argmax(J))
-    w = 2 * np.pi * modes["frequency_Hz"][j]
-    return {"mode": j, "frequency_Hz": modes["frequency_Hz"][j], "J_rim_kgm2": float(J[j]),
-            "J_hub_kgm2": modes["inertia_kgm2"] - float(J[j]), "k_body_Nm_per_rad": float(J[j] * w * w),
-            "rim_share_of_inertia": float(J[j] / modes["inertia_kgm2"])}
 
 
 def mesh_modes(k_table: float, rb: tuple[float, float], J_out: float, bodies: list[dict] | None) -> float:
@@ -130,9 +74,9 @@ def mesh_modes(k_table: float, rb: tuple[float, float], J_out: float, bodies: li
 
 def mesh_mode_static_bodies(k_table: float, rb: tuple[float, float], modes: list[dict]) -> float:
     """The mesh mode [Hz] of the input-held pair with each body as its static mode (Rayleigh-Ritz on the rigid
-    rotation and the deflection under the inertia load, :func:`body_modes`): DOFs the input's elastic rotation
-    q1, the output hub theta_2h and its elastic rotation q2; the mesh spring on rb1 q1 - rb2 (theta_2h + q2)
-    with the table's compliance less both bodies' static-mode compliance."""
+    rotation and the deflection under the inertia load, :func:`gearrom.fe.bodies.torsional_modes`): DOFs the
+    input's elastic rotation q1, the output hub theta_2h and its elastic rotation q2; the mesh spring on
+    rb1 q1 - rb2 (theta_2h + q2) with the table's compliance less both bodies' static-mode compliance."""
     from scipy.linalg import eigh
 
     rb1, rb2 = rb
@@ -147,6 +91,19 @@ def mesh_mode_static_bodies(k_table: float, rb: tuple[float, float], modes: list
                   [0.0, m2["inertia_kgm2"], m2["inertia_without_bore_kgm2"]],
                   [0.0, m2["inertia_without_bore_kgm2"], m2["static_mode"]["M_qq_kgm2"]]])
     return float(np.sqrt(eigh(K, M, eigvals_only=True)[0]) / (2 * np.pi))
+
+
+def model_inertias(pair, meshes, mesh: dict) -> tuple[float, float]:
+    """Polar inertias [kg m^2] of the two gears of the reference explicit model with the nodal masses it runs
+    with (mass scaling to its step included)."""
+    from run_ringdown import reference_model, reference_setup
+
+    from gearrom.fe.explicit import prepare
+    from gearrom.fe.explicit.gearpair import polar_inertias
+
+    model, info = reference_model(pair, meshes, reference_setup(mesh, rpm_in=2000.0, torque_out=120.0, mu=0.0), mesh)
+    d = prepare(model, 0.9, mesh.get("max_candidates"))
+    return polar_inertias(model, d["mass"], info.get("n_nodes_gear1", info["n_gear1"]))
 
 
 def table_tangent(pair, torque: float, torque_at: float, theta0: float) -> dict:
@@ -186,6 +143,7 @@ def main() -> None:
     from run_ringdown import REFERENCE, calibration, reference_meshes
 
     from gearrom.config import load_config
+    from gearrom.fe.bodies import body_from_modes, torsional_modes
     from gearrom.validation.pair_rom import fe_start_mesh_phase, polar_inertia
 
     pair = load_config(CONFIG[args.pair]).pair
@@ -194,13 +152,33 @@ def main() -> None:
     width = pair.face_width
     bodies, modes = [], []
     for i, (nodes, quads, bore) in enumerate(meshes[:2]):
-        m = body_modes(nodes, quads, bore, width, args.modes)
+        m = torsional_modes(nodes, quads, bore, width, n_modes=args.modes)
         m["inertia_exact_kgm2"] = polar_inertia(nodes, quads, (0.0, 0.0), 7850.0, width)
         modes.append(m)
-        bodies.append(torsional_body(m))
-        log.info("gear %d: first torsional body mode %.0f Hz, rim %.1f %% of the inertia", i,
-                 bodies[-1]["frequency_Hz"], 100 * bodies[-1]["rim_share_of_inertia"])
+        body = body_from_modes(m)
+        bodies.append({"mode_frequency_Hz": body.frequency, "J_rim_kgm2": body.rim_inertia,
+                       "J_hub_kgm2": body.hub_inertia, "k_body_Nm_per_rad": body.stiffness,
+                       "rim_share_of_inertia": body.rim_inertia / body.inertia})
+        log.info("gear %d: first torsional body mode %.0f Hz, rim %.1f %% of the inertia", i, body.frequency,
+                 100 * body.rim_inertia / body.inertia)
     cal = calibration(args.pair)
+    inertia_note = "the meshes' polar inertias"
+    if mesh.get("mass_scaling_dt_s") and args.pair == "helical":
+        # the reference model's mass scaling adds inertia on its small elements (the rims' tip roundings):
+        # the gears take the model's own polar inertias, the bodies scaled to them (same rim share)
+        j_model = model_inertias(pair, meshes, mesh)
+        for i, m in enumerate(modes):
+            scaled = body_from_modes(m).with_inertia(j_model[i])
+            bodies[i] = {"mode_frequency_Hz": scaled.frequency, "J_rim_kgm2": scaled.rim_inertia,
+                         "J_hub_kgm2": scaled.hub_inertia, "k_body_Nm_per_rad": scaled.stiffness,
+                         "rim_share_of_inertia": scaled.rim_inertia / scaled.inertia}
+            s = j_model[i] / m["inertia_kgm2"]
+            m["inertia_exact_kgm2"] = j_model[i]
+            m["static_mode"] = {"k_body_Nm_per_rad": m["static_mode"]["k_body_Nm_per_rad"],
+                                "M_qq_kgm2": m["static_mode"]["M_qq_kgm2"] * s}
+            m["inertia_without_bore_kgm2"] *= s
+            m["inertia_kgm2"] = j_model[i]
+        inertia_note = "the reference model's polar inertias (mass scaling included; the bodies' masses scaled alike)"
     f_fe = float(cal["runs"][-1]["frequency_Hz"])
     zeta = float(cal["zeta_measured"])
     f_fe_undamped = f_fe / np.sqrt(1 - zeta ** 2)
@@ -225,6 +203,7 @@ def main() -> None:
         "ringdown_mesh_phase_rad": theta0, "output_inertia_kgm2": J_out, "fe_ringdown_undamped_Hz": f_fe_undamped,
         "gears": [{"modes": m, "body_model": b} for m, b in zip(modes, bodies)],
         "cases": cases,
+        "inertias": inertia_note,
         "machine": {"cpu_count": os.cpu_count(), "platform": platform.platform()},
         "note": "fe_ringdown_undamped: the ring-down's damped frequency over sqrt(1 - zeta^2) "
                 f"(validation/ringdown_{args.pair}.json); rom_1dof: the validation ROM's model; rom_with_bodies: "

@@ -26,7 +26,7 @@ from gearrom.errors import ModelError
 
 log = logging.getLogger(__name__)
 
-__all__ = ["GearBody", "gear_body", "without_body_compliance"]
+__all__ = ["GearBody", "body_from_modes", "gear_body", "torsional_modes", "without_body_compliance"]
 
 
 @dataclass(frozen=True)
@@ -67,6 +67,60 @@ class GearBody:
                        frequency=self.frequency / np.sqrt(s))
 
 
+def torsional_modes(nodes: np.ndarray, quads: np.ndarray, bore: np.ndarray, width: float, *, E: float = 210e9,
+                    nu: float = 0.3, density: float = 7850.0, n_modes: int = 8) -> dict:
+    """Bore-clamped in-plane modes of a gear's transverse Q4 mesh (centred on the axis; plane strain, ``width``
+    thick) with their effective inertias about the axis, and the body's static mode.
+
+    Returns a dict: ``frequency_Hz`` and ``effective_inertia_kgm2`` of the ``n_modes`` lowest modes,
+    ``inertia_kgm2`` (the whole mesh's polar inertia), ``inertia_without_bore_kgm2``, and ``static_mode``: the
+    deflection under the inertia load of a unit angular acceleration (``M r``) scaled to a unit mass-weighted
+    mean rotation, as its stiffness ``k_body_Nm_per_rad`` and mass ``M_qq_kgm2`` (a Rayleigh-Ritz body model).
+    """
+    import scipy.sparse.linalg as sla
+    from skfem import Basis, BilinearForm, ElementQuad1, ElementVector, MeshQuad1
+    from skfem.helpers import dot
+    from skfem.models.elasticity import lame_parameters, linear_elasticity
+
+    nodes = np.asarray(nodes, float)
+    bore = np.unique(np.asarray(bore, np.int64))
+    if bore.size < 2 or width <= 0:
+        raise ModelError(f"gear body needs >= 2 bore nodes and width > 0, got {bore.size} nodes, width {width}")
+    basis = Basis(MeshQuad1(np.ascontiguousarray(nodes.T), np.ascontiguousarray(np.asarray(quads).T)),
+                  ElementVector(ElementQuad1()))
+    lam, mu = lame_parameters(E, nu)                # plane strain
+    K = width * linear_elasticity(lam, mu).assemble(basis)
+
+    @BilinearForm
+    def mass(u, v, w):
+        return density * width * dot(u, v)
+
+    M = mass.assemble(basis)
+    rot = np.zeros(K.shape[0])                      # DOFs of ElementVector(Quad1): x of node i at 2 i, y at 2 i + 1
+    rot[0::2], rot[1::2] = -nodes[:, 1], nodes[:, 0]
+    free = np.setdiff1d(np.arange(K.shape[0]), np.concatenate([2 * bore, 2 * bore + 1]))
+    Kf, Mf, r = K[free][:, free].tocsc(), M[free][:, free].tocsc(), rot[free]
+    psi = sla.spsolve(Kf, Mf @ r)
+    psi /= (r @ (Mf @ psi)) / (r @ (Mf @ r))
+    w2, phi = sla.eigsh(Kf, k=min(n_modes, free.size - 2), M=Mf, sigma=0.0, which="LM")
+    order = np.argsort(w2)
+    w2, phi = w2[order], phi[:, order]
+    phi = phi / np.sqrt(np.einsum("ij,ij->j", phi, Mf @ phi))
+    return {"frequency_Hz": (np.sqrt(np.maximum(w2, 0.0)) / (2 * np.pi)).tolist(),
+            "effective_inertia_kgm2": ((phi.T @ (Mf @ r)) ** 2).tolist(),
+            "inertia_kgm2": float(rot @ (M @ rot)), "inertia_without_bore_kgm2": float(r @ (Mf @ r)),
+            "static_mode": {"k_body_Nm_per_rad": float(psi @ (Kf @ psi)), "M_qq_kgm2": float(psi @ (Mf @ psi))}}
+
+
+def body_from_modes(modes: dict) -> GearBody:
+    """The rim-on-hub model of :func:`torsional_modes`' result: the mode of largest effective inertia as the rim."""
+    J = np.asarray(modes["effective_inertia_kgm2"])
+    j = int(np.argmax(J))
+    w = 2 * np.pi * modes["frequency_Hz"][j]
+    return GearBody(inertia=modes["inertia_kgm2"], rim_inertia=float(J[j]), stiffness=float(J[j] * w * w),
+                    frequency=float(modes["frequency_Hz"][j]))
+
+
 def gear_body(nodes: np.ndarray, quads: np.ndarray, bore: np.ndarray, width: float, *, E: float = 210e9,
               nu: float = 0.3, density: float = 7850.0, n_modes: int = 8) -> GearBody:
     """The rim-on-hub body model of a gear from its transverse Q4 mesh (centred on the axis).
@@ -90,38 +144,10 @@ def gear_body(nodes: np.ndarray, quads: np.ndarray, bore: np.ndarray, width: flo
     -------
     GearBody
     """
-    import scipy.sparse.linalg as sla
-    from skfem import Basis, BilinearForm, ElementQuad1, ElementVector, MeshQuad1
-    from skfem.helpers import dot
-    from skfem.models.elasticity import lame_parameters, linear_elasticity
-
-    nodes = np.asarray(nodes, float)
-    bore = np.unique(np.asarray(bore, np.int64))
-    if bore.size < 2 or width <= 0:
-        raise ModelError(f"gear_body needs >= 2 bore nodes and width > 0, got {bore.size} nodes, width {width}")
-    basis = Basis(MeshQuad1(np.ascontiguousarray(nodes.T), np.ascontiguousarray(np.asarray(quads).T)),
-                  ElementVector(ElementQuad1()))
-    lam, mu = lame_parameters(E, nu)                # plane strain
-    K = width * linear_elasticity(lam, mu).assemble(basis)
-
-    @BilinearForm
-    def mass(u, v, w):
-        return density * width * dot(u, v)
-
-    M = mass.assemble(basis)
-    rot = np.zeros(K.shape[0])                      # DOFs of ElementVector(Quad1): x of node i at 2 i, y at 2 i + 1
-    rot[0::2], rot[1::2] = -nodes[:, 1], nodes[:, 0]
-    free = np.setdiff1d(np.arange(K.shape[0]), np.concatenate([2 * bore, 2 * bore + 1]))
-    Kf, Mf, r = K[free][:, free].tocsc(), M[free][:, free].tocsc(), rot[free]
-    w2, phi = sla.eigsh(Kf, k=min(n_modes, free.size - 2), M=Mf, sigma=0.0, which="LM")
-    phi = phi / np.sqrt(np.einsum("ij,ij->j", phi, Mf @ phi))
-    J_eff = (phi.T @ (Mf @ r)) ** 2
-    j = int(np.argmax(J_eff))
-    J = float(rot @ (M @ rot))
-    body = GearBody(inertia=J, rim_inertia=float(J_eff[j]), stiffness=float(J_eff[j] * w2[j]),
-                    frequency=float(np.sqrt(w2[j]) / (2 * np.pi)))
+    body = body_from_modes(torsional_modes(nodes, quads, bore, width, E=E, nu=nu, density=density,
+                                           n_modes=n_modes))
     log.info("gear body: first torsional mode %.0f Hz, rim %.1f %% of %.4g kg m^2", body.frequency,
-             100 * body.rim_inertia / J, J)
+             100 * body.rim_inertia / body.inertia, body.inertia)
     return body
 
 

@@ -163,7 +163,8 @@ def body_drivetrain(pair, excitation, setup: PairRomSetup, bodies: tuple, *, inp
     masses = (Disk("in.hub", 0.0, j1 + b1.hub_inertia, 0.0), Disk("in.gear", 0.0, b1.rim_inertia, 0.0),
               Disk("out.gear", 0.0, b2.rim_inertia, 0.0), Disk("out.hub", 0.0, b2.hub_inertia, 0.0),
               Motor("in.hub", 0.0, c_speed=2 * 0.7 * j1 * wc, k_i=j1 * wc**2))
-    encoders = (Encoder("in.sensor", "in.hub", rb1, "sensor", "in"), Encoder("out.sensor", "out.hub", rb2, "sensor", "out"),
+    encoders = (Encoder("in.sensor", "in.hub", rb1, "sensor", "in"),
+                Encoder("out.sensor", "out.hub", rb2, "sensor", "out"),
                 Encoder("in.rim", "in.gear", rb1, "clutch", "in"), Encoder("out.rim", "out.gear", rb2, "clutch", "out"))
     table = without_body_compliance(excitation, (b1, b2), pair.rb)
 
