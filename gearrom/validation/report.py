@@ -423,11 +423,13 @@ def validate(config: str, rpms, fe_dir: str | Path | None = None, fresh: bool = 
 
 
 def _preferred_integration(fe_dir: Path, rpm: float, prefix: str = "spur") -> str:
-    """The first kind of :data:`FE_INTEGRATIONS` stored for ``rpm`` ("reduced" when none is)."""
+    """The first kind of :data:`FE_INTEGRATIONS` stored for ``rpm``. When none is: "loaded" for a pair with a
+    record prefix of its own (micro-geometry: only references from the loaded start are made for it), so that
+    the error names the record to make, else "reduced"."""
     for kind in FE_INTEGRATIONS:
         if record_stem(fe_dir, rpm, prefix, kind).with_suffix(".npz").is_file():
             return kind
-    return "reduced"
+    return "loaded" if "-" in prefix else "reduced"
 
 
 def fe_damping_ratio(fe: FERecord) -> float:

@@ -51,3 +51,7 @@ def test_a_record_of_another_pair_is_refused(tmp_path):
 def test_a_missing_record_names_the_command(tmp_path):
     with pytest.raises(MeasurementError, match="run_explicit_helical.py 2000 .*--config thesis-helical-drawing"):
         validate("thesis-helical-drawing", [2000.0], fe_dir=tmp_path, fe_integration="loaded")
+    # without a kind given, a pair of its own names its loaded-start reference (the only kind made for it)
+    with pytest.raises(MeasurementError, match=r"helical-thesis-helical-drawing_2000rpm_loaded\.npz is missing .*"
+                                               r"run_explicit_helical.py 2000 --start loaded"):
+        validate("thesis-helical-drawing", [2000.0], fe_dir=tmp_path)
