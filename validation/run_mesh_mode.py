@@ -148,7 +148,13 @@ def main() -> None:
 
     pair = load_config(CONFIG[args.pair]).pair
     mesh = REFERENCE[args.pair]
-    meshes = reference_meshes(pair, mesh)
+    if pair.is_helical:      # the stored transverse meshes the helical references run on
+        meshes = reference_meshes(pair, mesh)
+    else:                    # the spur references' sizes, meshed here (no stored mesh file is written for them)
+        from gearrom.fe.explicit.gearmesh import gear_quad_mesh
+
+        meshes = [gear_quad_mesh(pair, i, mesh["outline_size_m"], mesh["body_size_m"], sag=mesh["sag_m"],
+                                 periodic=mesh.get("periodic", False)) for i in (0, 1)]
     width = pair.face_width
     bodies, modes = [], []
     for i, (nodes, quads, bore) in enumerate(meshes[:2]):
