@@ -25,7 +25,9 @@ width, steel of :class:`gearrom.fe.explicit.model.Material`):
 
 It writes ``validation/mesh_mode_<pair>.json``. The table is the validation ROM's (load-dependent LTCA table
 on the reference flank grid or strips, as ``gearrom validate`` builds it); its tangent stiffness is taken over
-the mesh cycle at ``--torque`` and at the ring-down's position and stepped torque. The helical bodies come
+the mesh cycle at ``--torque`` and at the ring-down's position and stepped torque, and the latter scaled to the
+explicit model's own static stiffness (its static consistency study, :data:`STATIC_GATE`: the table and the
+explicit model differ by the gate's stiffness error, which moves the mode by half of it). The helical bodies come
 from the reference model's transverse mesh times the face width (the model extrudes it in twisted layers;
 the body's torsion is that of the prismatic disc).
 """
@@ -104,6 +106,20 @@ def model_inertias(pair, meshes, mesh: dict) -> tuple[float, float]:
     model, info = reference_model(pair, meshes, reference_setup(mesh, rpm_in=2000.0, torque_out=120.0, mu=0.0), mesh)
     d = prepare(model, 0.9, mesh.get("max_candidates"))
     return polar_inertias(model, d["mass"], info.get("n_nodes_gear1", info["n_gear1"]))
+
+
+#: the static consistency studies of the reference meshes (explicit model against the validation table)
+STATIC_GATE = {"spur": "static_gate_spur_sag0.25um_penalty1_body0.75mm_periodic.json",
+               "helical": "static_gate_helical_layers16_outline0.15mm_sag1um_body2.5mm_full_periodic_reference.json"}
+
+
+def static_stiffness_ratio(kind: str, mesh: dict) -> float:
+    """The explicit reference model's static tangent mesh stiffness over the validation table's, from its static
+    consistency study (:data:`STATIC_GATE`; the helical study at the reference's contact penalty)."""
+    d = json.loads((HERE / STATIC_GATE[kind]).read_text())
+    gate = d["gate"] if "gate" in d else d["gate_by_penalty"][f"{mesh['penalty_scale']:g}"]
+    k = gate["stiffness_N_per_um"]
+    return float(k["fe"] / k["ltca"])
 
 
 def table_tangent(pair, torque: float, torque_at: float, theta0: float) -> dict:
@@ -193,6 +209,9 @@ def main() -> None:
     theta0 = fe_start_mesh_phase(pair)             # the ring-down holds the input at the FE's start position
     k_at = table_tangent(pair, T, T_ring, theta0)
     label = k_at.pop("table")
+    ratio = static_stiffness_ratio(args.pair, mesh)
+    k_at["ring-down position and torque, table at the explicit model's static stiffness"] = (
+        k_at["ring-down position and torque"] * ratio)
     J_out = modes[1]["inertia_exact_kgm2"]
     cases = {}
     for name, k_table in k_at.items():
@@ -206,7 +225,8 @@ def main() -> None:
                  f["rom_with_static_mode_bodies"], f_fe_undamped)
     out = {
         "pair": CONFIG[args.pair], "torque_out_Nm": T, "ringdown_torque_Nm": T_ring, "mesh": mesh, "table": label,
-        "ringdown_mesh_phase_rad": theta0, "output_inertia_kgm2": J_out, "fe_ringdown_undamped_Hz": f_fe_undamped,
+        "ringdown_mesh_phase_rad": theta0, "static_stiffness_ratio_fe_to_ltca": ratio,
+        "static_gate": STATIC_GATE[args.pair], "output_inertia_kgm2": J_out, "fe_ringdown_undamped_Hz": f_fe_undamped,
         "gears": [{"modes": m, "body_model": b} for m, b in zip(modes, bodies)],
         "cases": cases,
         "inertias": inertia_note,

@@ -55,6 +55,13 @@ log = logging.getLogger(__name__)
 __all__ = ["body_drivetrain", "mesh_mode", "pair_drivetrain", "simulate_pair_exudyn"]
 
 
+def _check_positive(where: str, **values: float) -> None:
+    """ModelError naming the first of ``values`` that is not a positive finite number."""
+    for key, val in values.items():
+        if not (val > 0 and math.isfinite(val)):
+            raise ModelError(f"{where}: {key} must be a positive finite number, got {val!r}")
+
+
 def pair_drivetrain(pair, excitation, setup: PairRomSetup, *, input_inertia_ratio: float = 1e6,
                     speed_loop_hz: float = 50.0, backlash: float = 1e-3, max_step: float = 2e-6,
                     name: str = "explicit-fe-pair", bodies: tuple | None = None) -> Drivetrain:
@@ -97,10 +104,8 @@ def pair_drivetrain(pair, excitation, setup: PairRomSetup, *, input_inertia_rati
     ModelError
         Non-positive ``input_inertia_ratio``, ``speed_loop_hz``, ``backlash`` or ``max_step``.
     """
-    for key, val in (("input_inertia_ratio", input_inertia_ratio), ("speed_loop_hz", speed_loop_hz),
-                     ("backlash", backlash), ("max_step", max_step)):
-        if not (val > 0 and math.isfinite(val)):
-            raise ModelError(f"pair_drivetrain: {key} must be a positive finite number, got {val!r}")
+    _check_positive("pair_drivetrain", input_inertia_ratio=input_inertia_ratio, speed_loop_hz=speed_loop_hz,
+                    backlash=backlash, max_step=max_step)
     if bodies is not None:
         return body_drivetrain(pair, excitation, setup, bodies, input_inertia_ratio=input_inertia_ratio,
                                speed_loop_hz=speed_loop_hz, backlash=backlash, max_step=max_step, name=name)
@@ -142,10 +147,8 @@ def body_drivetrain(pair, excitation, setup: PairRomSetup, bodies: tuple, *, inp
     from gearrom.fe.bodies import without_body_compliance
     from gearrom.rom.components import Clutch
 
-    for key, val in (("input_inertia_ratio", input_inertia_ratio), ("speed_loop_hz", speed_loop_hz),
-                     ("backlash", backlash), ("max_step", max_step)):
-        if not (val > 0 and math.isfinite(val)):
-            raise ModelError(f"body_drivetrain: {key} must be a positive finite number, got {val!r}")
+    _check_positive("body_drivetrain", input_inertia_ratio=input_inertia_ratio, speed_loop_hz=speed_loop_hz,
+                    backlash=backlash, max_step=max_step)
     b1, b2 = bodies[0], bodies[1].with_inertia(float(setup.inertia_out))
     rb1, rb2 = pair.rb
     z1, z2 = pair.z
