@@ -100,9 +100,11 @@ def torsional_modes(nodes: np.ndarray, quads: np.ndarray, bore: np.ndarray, widt
     rot[0::2], rot[1::2] = -nodes[:, 1], nodes[:, 0]
     free = np.setdiff1d(np.arange(K.shape[0]), np.concatenate([2 * bore, 2 * bore + 1]))
     Kf, Mf, r = K[free][:, free].tocsc(), M[free][:, free].tocsc(), rot[free]
-    psi = sla.spsolve(Kf, Mf @ r)
+    lu = sla.splu(Kf)                               # one factorisation: the static mode and the shift-invert modes
+    psi = lu.solve(Mf @ r)
     psi /= (r @ (Mf @ psi)) / (r @ (Mf @ r))
-    w2, phi = sla.eigsh(Kf, k=min(n_modes, free.size - 2), M=Mf, sigma=0.0, which="LM")
+    w2, phi = sla.eigsh(Kf, k=min(n_modes, free.size - 2), M=Mf, sigma=0.0, which="LM",
+                        OPinv=sla.LinearOperator(Kf.shape, matvec=lu.solve, dtype=float))
     order = np.argsort(w2)
     w2, phi = w2[order], phi[:, order]
     phi = phi / np.sqrt(np.einsum("ij,ij->j", phi, Mf @ phi))
