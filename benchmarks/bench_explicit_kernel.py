@@ -25,19 +25,19 @@ same run, with one pass per greedy colour over the whole mesh (the element order
 and the share of the elements, the contact and the damping in the step (the same steps without contact and
 without relative damping). Writes ``hex8_helical_reference`` into the results file.
 
-``--loop-passes``: on the same reference model, the whole step with the package loop (the free nodes' damping,
-accelerations and second half-kick in one pass, forces cleared in the kick-drift pass, contact positions for the
-contact nodes only) against the loop of git revision ``LOOP_BASELINE_REV`` (a pass per reference for the relative
-damping, a force-reset pass and a position pass over all nodes), alternated in one run, best of three each.
-Writes ``hex8_helical_loop_passes``.
-
 ``--kernel-variants``: on the same reference model and element schedule, the fully integrated Hex8 element
 pass alone (no step around it), serial and on both cores, in one run: the package (its kernel
 :func:`gearrom.fe.explicit.kernels.hex8_full_element`: displacements read once, forces summed over the Gauss
-points locally, written once; the Gauss gradients in single precision as ``prepare`` stores them), the same
-kernel on double-precision gradients, and the baseline form kept here (:func:`_hex8_full_per_gauss`:
-displacements read and forces written at every Gauss point, double-precision gradients); with the largest force
-difference to the baseline. Writes ``hex8_full_kernel_variants``.
+points locally, written once; Gauss gradients in double precision read from the table of congruent shapes that
+``prepare`` builds, :func:`gearrom.fe.explicit.geometry.congruent_shapes`), the same kernel on the table in
+single precision and on every element's own single- and double-precision gradients (the forms that stream them
+from memory), and the baseline form kept here (:func:`_hex8_full_per_gauss`: own double-precision gradients,
+displacements read and forces written at every Gauss point); with the largest force difference to the baseline.
+Writes ``hex8_full_kernel_variants``.
+
+``--shape-table``: on the same reference model, the whole step with the shape table against the same loop fed
+every element's own gradients, alternated in one run, best of three each, and the difference of the two runs'
+gear rotations at the end. Writes ``hex8_helical_shape_table``.
 """
 from __future__ import annotations
 
@@ -155,7 +155,7 @@ def _colour_schedule(d: dict, conn: np.ndarray, n: int) -> dict:
     inv = np.empty_like(d["element_order"])
     inv[d["element_order"]] = np.arange(d["element_order"].size)     # prepared position of each model element
     pos = inv[order]
-    for k in ("conn", "B", "V0", "gamma", "khg", "chg", "full", "Bg", "Wg"):
+    for k in ("conn", "B", "V0", "gamma", "khg", "chg", "full", "gshape", "grot"):
         out[k] = np.ascontiguousarray(d[k][pos])
     out["bptr"] = np.asarray([0] + ends, np.int64)
     out["cptr"] = np.concatenate([[0], np.cumsum(per)]).astype(np.int64)
@@ -225,57 +225,47 @@ def measure_reference(nsteps: int = 60) -> dict:
     return out
 
 
-#: git revision whose explicit loop makes the node passes separately (``--loop-passes``)
-LOOP_BASELINE_REV = "09fcf82"
+def _own_gradients(model, d: dict) -> dict:
+    """``d`` with every element's own Gauss gradients (prepared order, single precision) instead of the table."""
+    from gearrom.fe.explicit.geometry import full_integration_data
+
+    Bg, Wg = full_integration_data(model.nodes, model.elements)
+    order = d["element_order"]
+    ne = order.size
+    return {**d, "Bg": np.ascontiguousarray(Bg[order], dtype=np.float32), "Wg": np.ascontiguousarray(Wg[order]),
+            "gshape": np.arange(ne, dtype=np.int64), "grot": np.tile([1.0, 0.0], (ne, 1))}
 
 
-def measure_loop_passes(nsteps: int = 100, repeats: int = 3) -> dict:
-    """Step time of the reference model, package loop vs the loop of ``LOOP_BASELINE_REV`` (``--loop-passes``)."""
-    import importlib.util
-    import subprocess
-    import tempfile
-    from pathlib import Path
-
-    import gearrom.fe.explicit.driver as driver
-    import gearrom.fe.explicit.loop as loop
-
-    root = Path(__file__).resolve().parents[1]
-    src = subprocess.run(["git", "show", f"{LOOP_BASELINE_REV}:gearrom/fe/explicit/loop.py"], cwd=root,
-                         check=True, capture_output=True, text=True).stdout
-    tmp = Path(tempfile.mkdtemp()) / "loop_baseline.py"
-    tmp.write_text(src)
-    spec = importlib.util.spec_from_file_location("loop_baseline", tmp)
-    baseline = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(baseline)
+def measure_shape_table(nsteps: int = 60, repeats: int = 3) -> dict:
+    """Step time of the reference model with the shape table and with own gradients (``--shape-table``)."""
     model, d = _reference_model()
     dt = d["dt"]
-    loops = {"package": loop.run_loop_parallel, "baseline": baseline.run_loop_parallel}
-    walls = {k: [] for k in loops}
-    energy = {}
-    try:
-        for _ in range(repeats):
-            for name, fn in loops.items():
-                driver.run_loop_parallel = fn
-                solve(model, 4 * dt, sample_period=2 * dt, prepared=d, parallel=True, chunks=1)
-                t0 = time.perf_counter()
-                res = solve(model, nsteps * dt, sample_period=nsteps * dt / 2, prepared=d, parallel=True, chunks=1)
-                walls[name].append((time.perf_counter() - t0) / res.meta["n_steps"] * 1e3)
-                energy[name] = float(res.energy_error)
-                print(f"{name}: {walls[name][-1]:.1f} ms per step", flush=True)
-    finally:
-        driver.run_loop_parallel = loop.run_loop_parallel
-    out = {name: {"ms_per_step": min(w), "ms_per_step_repeats": w, "energy_error_J": energy[name]}
-           for name, w in walls.items()}
-    out["speedup"] = out["baseline"]["ms_per_step"] / out["package"]["ms_per_step"]
-    out["baseline_rev"] = LOOP_BASELINE_REV
+    variants = {"shape_table": d, "own_gradients": _own_gradients(model, d)}
+    walls = {k: [] for k in variants}
+    theta = {}
+    for _ in range(repeats):
+        for name, dd in variants.items():
+            solve(model, 4 * dt, sample_period=2 * dt, prepared=dd, parallel=True, chunks=1)
+            t0 = time.perf_counter()
+            res = solve(model, nsteps * dt, sample_period=nsteps * dt / 2, prepared=dd, parallel=True, chunks=1)
+            walls[name].append((time.perf_counter() - t0) / res.meta["n_steps"] * 1e3)
+            theta[name] = np.asarray(res.theta)[-1]
+            print(f"{name}: {walls[name][-1]:.1f} ms per step", flush=True)
+    out = {name: {"ms_per_step": min(w), "ms_per_step_repeats": w} for name, w in walls.items()}
+    out["speedup"] = out["own_gradients"]["ms_per_step"] / out["shape_table"]["ms_per_step"]
+    out["n_shapes"] = int(len(d["Bg"]))
+    out["n_elements"] = int(model.elements.shape[0])
+    out["max_rotation_difference_rad"] = float(np.abs(theta["shape_table"] - theta["own_gradients"]).max())
     out["n_steps"] = nsteps
+    out["model"] = "helical validation reference (run_ringdown.REFERENCE_MESH_HELICAL), loaded start, 2 threads"
     return out
 
 
 @numba.njit(cache=True, fastmath=True, inline="always")
-def _hex8_full_per_gauss(e, conn, u, Bg, Wg, lam, mu, f):
-    """Baseline fully integrated Hex8 element: the displacements are read and the forces written at every
-    Gauss point (same arithmetic as the package kernel, other memory traffic)."""
+def _hex8_full_per_gauss(e, conn, u, Bg, Wg, shape, rot, lam, mu, f):
+    """Baseline fully integrated Hex8 element on its own gradients (``shape``, ``rot`` unused): the
+    displacements are read and the forces written at every Gauss point (same arithmetic as the package kernel,
+    other memory traffic)."""
     wint = 0.0
     for g in range(8):
         w = Wg[e, g]
@@ -307,12 +297,12 @@ def _hex8_full_per_gauss(e, conn, u, Bg, Wg, lam, mu, f):
 def _element_pass(kernel):
     """The loop's element pass (passes in sequence, the blocks of a pass in parallel) with ``kernel``."""
     @numba.njit(parallel=True, fastmath=True)
-    def run(conn, u, Bg, Wg, lam, mu, f, cptr, bptr):
+    def run(conn, u, Bg, Wg, shape, rot, lam, mu, f, cptr, bptr):
         wint = 0.0
         for c in range(cptr.shape[0] - 1):
             for b in numba.prange(cptr[c], cptr[c + 1]):
                 for e in range(bptr[b], bptr[b + 1]):
-                    wint += kernel(e, conn, u, Bg, Wg, lam, mu, f)
+                    wint += kernel(e, conn, u, Bg, Wg, shape, rot, lam, mu, f)
         return wint
     return run
 
@@ -322,38 +312,43 @@ def measure_kernel_variants(repeats: int = 5) -> dict:
     from gearrom.fe.explicit.kernels import hex8_full_element
 
     model, d = _reference_model()
-    conn, Bg, Wg, cptr, bptr = d["conn"], d["Bg"], d["Wg"], d["cptr"], d["bptr"]
+    own = _own_gradients(model, d)
+    conn, cptr, bptr = d["conn"], d["cptr"], d["bptr"]
     u = np.random.default_rng(0).normal(0.0, 1e-6, model.nodes.shape)     # every element strained
     lam, mu = float(d["lam"]), float(d["mu"])
     ne = conn.shape[0]
-    out = {"n_elements": ne, "repeats": repeats}
+    out = {"n_elements": ne, "n_shapes": int(len(d["Bg"])), "repeats": repeats}
     forces = {}
-    Bg64 = Bg.astype(np.float64)
+    own64 = {**own, "Bg": own["Bg"].astype(np.float64)}
     package, baseline = _element_pass(hex8_full_element), _element_pass(_hex8_full_per_gauss)
-    variants = (("package", package, Bg), ("package_float64_gradients", package, Bg64),
-                ("per_gauss_baseline", baseline, Bg64))
+    table32 = {**d, "Bg": d["Bg"].astype(np.float32)}
+    variants = (("package", package, d), ("package_float32_table", package, table32),
+                ("package_own_gradients", package, own),
+                ("package_own_float64_gradients", package, own64), ("per_gauss_baseline", baseline, own64))
+    compared = [name for name, _, _ in variants[:-1]]
     for threads in (1, 2):
         numba.set_num_threads(threads)
-        for name, run, grads in variants:
+        for name, run, arr in variants:
+            grads = (arr["Bg"], arr["Wg"], arr["gshape"], arr["grot"])
             f = np.zeros_like(u)
-            run(conn, u, grads, Wg, lam, mu, f, cptr, bptr)     # compile
+            run(conn, u, *grads, lam, mu, f, cptr, bptr)     # compile
             forces[name] = f
             walls = []
             for _ in range(repeats):
                 f[:] = 0.0
                 t0 = time.perf_counter()
-                run(conn, u, grads, Wg, lam, mu, f, cptr, bptr)
+                run(conn, u, *grads, lam, mu, f, cptr, bptr)
                 walls.append(time.perf_counter() - t0)
             wall = min(walls)
             out[f"{name}_{threads}_threads"] = {"ms_per_pass": wall * 1e3, "element_updates_per_s": ne / wall,
                                                 "wall_s_repeats": walls}
             print(f"{name}, {threads} thread(s): {wall * 1e3:.1f} ms per pass, {ne / wall:.3g} element updates per s",
                   flush=True)
-        for name in ("package", "package_float64_gradients"):
+        for name in compared:
             out[f"speedup_{name}_{threads}_threads"] = (out[f"per_gauss_baseline_{threads}_threads"]["ms_per_pass"]
                                                         / out[f"{name}_{threads}_threads"]["ms_per_pass"])
     scale = np.abs(forces["per_gauss_baseline"]).max()
-    for name in ("package", "package_float64_gradients"):
+    for name in compared:
         out[f"max_force_difference_rel_{name}"] = float(np.abs(forces[name] - forces["per_gauss_baseline"]).max()
                                                         / scale)
     out["model"] = "helical validation reference (run_ringdown.REFERENCE_MESH_HELICAL), element pass only"
@@ -383,7 +378,7 @@ def main() -> None:
                         "2x2 / 2x2x2 Gauss elements without hourglass control vs the one-point "
                         "elements, measured back to back in one run (machine section: its date)"),
         "--kernel-variants": ("hex8_full_kernel_variants", measure_kernel_variants, None),
-        "--loop-passes": ("hex8_helical_loop_passes", measure_loop_passes, None),
+        "--shape-table": ("hex8_helical_shape_table", measure_shape_table, None),
         "--reference-only": ("hex8_helical_reference", measure_reference, None),
     }
     for flag, (key, measure_one, note) in single.items():

@@ -68,8 +68,9 @@ def test_stiffness_is_the_explicit_kernels_tangent():
     u = np.random.default_rng(4).standard_normal(X.shape) * 1e-10
     Bg, Wg = full_integration_data(X, hexes)
     f = np.zeros_like(X)
+    own, identity = np.arange(hexes.shape[0]), np.tile([1.0, 0.0], (hexes.shape[0], 1))
     for e in range(hexes.shape[0]):
-        hex8_full_element(e, hexes, u, Bg, Wg, LAM, MU, f)
+        hex8_full_element(e, hexes, u, Bg, Wg, own, identity, LAM, MU, f)
     Ku = (hex8_stiffness(X, hexes, LAM, MU) @ u.ravel()).reshape(-1, 3)
     assert np.allclose(Ku, -f, rtol=1e-5, atol=1e-6 * np.abs(f).max())
 

@@ -13,7 +13,7 @@ import numpy as np
 from gearrom.errors import ConfigError, ModelError, RunInterrupted
 from gearrom.fe.explicit.contact import facet_neighbours, facet_sags
 from gearrom.fe.explicit.elements import element_type
-from gearrom.fe.explicit.geometry import nodal_omega2, schedule_elements
+from gearrom.fe.explicit.geometry import congruent_shapes, nodal_omega2, schedule_elements
 from gearrom.fe.explicit.loop import (CONTACT_ARRAYS, ELEMENT_ARRAYS, LOAD_ARRAYS, NE_OUT, NODE_ARRAYS, OUTPUT_ARRAYS,
                                       REFERENCE_ARRAYS, STATE_ARRAYS, ramp, run_loop_parallel, run_loop_serial)
 from gearrom.fe.explicit.model import ExplicitModel
@@ -69,13 +69,21 @@ def prepare(model: ExplicitModel, safety: float = 0.9, max_candidates: int | Non
     full = np.full(ne, el.full, np.uint8)
     node_w2 = nodal_omega2(conn0, lam_e, mass)
     order, bptr, cptr = schedule_elements(conn0, n, numba.get_num_threads())
-    # The Gauss-point gradients are stored in single precision: on two threads the fully integrated element
-    # pass streams them from memory and is bound by that traffic. Energy and forces use the same rounded
-    # gradients, so the discrete model stays conservative (its stiffness differs by the rounding, ~1e-7).
+    # The fully integrated element pass reads Gauss-point gradients for every element; streamed from memory
+    # they bound its speed. Elements that are rotated copies of one shape (cyclic teeth, twisted layers) read
+    # the shape's gradients from a small table (geometry.congruent_shapes) that stays in cache; the others
+    # keep their own.
+    if el.full:
+        Bg, Wg, gshape, grot = congruent_shapes(X, conn0, Bg, Wg)
+        log.info("element pass: %d gradient shapes for %d fully integrated elements", len(Bg), ne)
+    else:
+        Bg, Wg = Bg[:1], Wg[:1]
+        gshape, grot = np.zeros(ne, np.int64), np.tile([1.0, 0.0], (ne, 1))
+    gshape, grot = gshape[order], grot[order]
     d = dict(conn=np.ascontiguousarray(conn0[order]), B=B[order], V0=V0[order], gamma=gamma[order],
              khg=khg[order], chg=chg[order], cptr=cptr, bptr=bptr, element_order=order, lam=lam, mu=mu,
-             mass=mass, dim=dim, n=n,
-             full=full[order], Bg=np.ascontiguousarray(Bg[order], dtype=np.float32), Wg=np.ascontiguousarray(Wg[order]))
+             mass=mass, dim=dim, n=n, full=full[order], Bg=np.ascontiguousarray(Bg),
+             Wg=np.ascontiguousarray(Wg), gshape=np.ascontiguousarray(gshape), grot=np.ascontiguousarray(grot))
     # fixed DOFs
     fixmask = np.zeros((n, dim), np.uint8)
     for name, comps in model.fixed.items():

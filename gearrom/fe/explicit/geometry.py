@@ -107,6 +107,72 @@ def full_integration_data(nodes: np.ndarray, elements: np.ndarray, thickness: fl
     return np.ascontiguousarray(dNdX), np.ascontiguousarray(detJ)
 
 
+def congruent_shapes(nodes: np.ndarray, elements: np.ndarray, Bg: np.ndarray, Wg: np.ndarray,
+                     rtol: float = 1e-9) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Group elements that are copies of each other by a rotation about the z axis and a translation.
+
+    The teeth of a gear meshed with cyclic symmetry, and the layers of a helical gear extruded with a twist,
+    repeat a few hundred element shapes many thousand times. An element that is such a copy of a shape has
+    the shape's Gauss-point gradients rotated by its angle (b = R b_s) and the shape's weights, so the
+    element pass can read one small table instead of streaming every element's own gradients.
+
+    Each element is brought to a canonical frame: node 0 at the origin and the xy part of the vector
+    ``sum_a a (x_a - x_0)`` along +x. Elements whose canonical coordinates agree (rounded to 1e-12 of the
+    model's size) are candidates for one shape; every candidate is then checked against its own gradients
+    and weights (relative difference below ``rtol``), and one that fails keeps a shape of its own.
+
+    Returns
+    -------
+    table_Bg : ndarray (ns, ng, nen, dim), 1/m
+        Gradients of each shape in its canonical frame.
+    table_Wg : ndarray (ns, ng), m^3
+        Weights of each shape.
+    shape : ndarray (ne,) int64
+        The shape of each element.
+    rot : ndarray (ne, 2)
+        cos and sin of the rotation about z from the canonical frame to the element.
+    """
+    X = nodes[elements]                                             # (ne, nen, 3)
+    rel = X - X[:, :1, :]
+    v = np.einsum("a,eai->ei", np.arange(X.shape[1], dtype=float), rel[:, :, :2])
+    phi = np.arctan2(v[:, 1], v[:, 0])
+    c, s = np.cos(phi), np.sin(phi)
+    can = np.empty_like(rel)
+    can[..., 0] = c[:, None] * rel[..., 0] + s[:, None] * rel[..., 1]
+    can[..., 1] = -s[:, None] * rel[..., 0] + c[:, None] * rel[..., 1]
+    can[..., 2:] = rel[..., 2:]
+    q = 1e-12 * max(float(np.ptp(nodes, axis=0).max()), 1e-300)
+    keys = np.round(can.reshape(len(can), -1) / q).astype(np.int64)
+    _, rep, shape = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+    shape = shape.ravel()
+    # the shape's canonical gradients from its representative: b_s = R^T b_rep
+    br = Bg[rep]
+    cr, sr = c[rep][:, None, None], s[rep][:, None, None]
+    table = np.empty_like(br)
+    table[..., 0] = cr * br[..., 0] + sr * br[..., 1]
+    table[..., 1] = -sr * br[..., 0] + cr * br[..., 1]
+    table[..., 2:] = br[..., 2:]
+    tw = Wg[rep].copy()
+    # every member against its own gradients and weights
+    t = table[shape]
+    ce, se = c[:, None, None], s[:, None, None]
+    dev = np.maximum(np.abs(ce * t[..., 0] - se * t[..., 1] - Bg[..., 0]).max(axis=(1, 2)),
+                     np.abs(se * t[..., 0] + ce * t[..., 1] - Bg[..., 1]).max(axis=(1, 2)))
+    if Bg.shape[-1] == 3:
+        dev = np.maximum(dev, np.abs(t[..., 2] - Bg[..., 2]).max(axis=(1, 2)))
+    dev = dev / np.abs(Bg).max(axis=(1, 2, 3))
+    dev = np.maximum(dev, np.abs(tw[shape] - Wg).max(axis=1) / np.abs(Wg).max(axis=1))
+    bad = np.flatnonzero(dev > rtol)
+    if bad.size:
+        shape[bad] = len(table) + np.arange(bad.size)
+        table = np.concatenate([table, Bg[bad]])
+        tw = np.concatenate([tw, Wg[bad]])
+        c[bad], s[bad] = 1.0, 0.0
+        used, shape = np.unique(shape, return_inverse=True)
+        table, tw = table[used], tw[used]
+    return np.ascontiguousarray(table), np.ascontiguousarray(tw), shape.astype(np.int64), np.stack([c, s], axis=1)
+
+
 def _voigt_B(B: np.ndarray) -> np.ndarray:
     """Voigt strain-displacement matrices (ne, 3 or 6, nen*dim) of gradients ``B`` (ne, nen, dim)."""
     ne, nen, dim = B.shape

@@ -169,105 +169,127 @@ def hex8_element(e, conn, u, v, B, V0, gamma, khg, chg, lam, mu, f):
 
 
 @njit(cache=True, fastmath=True, inline="always")
-def q4_full_element(e, conn, u, Bg, Wg, lam, mu, f):
+def q4_full_element(e, conn, u, Bg, Wg, shape, rot, lam, mu, f):
     """Residual contribution of a fully integrated (2x2 Gauss) Q4 element ``e``; returns W_int in J.
 
     The same total-Lagrangian St Venant-Kirchhoff law as the one-point kernels, evaluated at every
-    Gauss point g with the point gradients ``Bg[e, g]`` and weights ``Wg[e, g]`` (det J times the
-    thickness): f_a -= sum_g Wg P_g Bg_a. The element has no zero-energy modes besides rigid motion,
-    so it needs no hourglass control and has no hourglass energy.
+    Gauss point g with the point gradients ``Bg[s, g]`` and weights ``Wg[s, g]`` (det J times the
+    thickness) of the element's shape ``s = shape[e]``, turned in plane by ``rot[e]`` (cos, sin), on the
+    displacements relative to node 0, as :func:`hex8_full_element`: f_a -= sum_g Wg P_g b_a. The element
+    has no zero-energy modes besides rigid motion, so it needs no hourglass control and has no hourglass
+    energy.
     """
     n0 = conn[e, 0]; n1 = conn[e, 1]; n2 = conn[e, 2]; n3 = conn[e, 3]
-    ux0 = u[n0, 0]; uy0 = u[n0, 1]
-    ux1 = u[n1, 0]; uy1 = u[n1, 1]
-    ux2 = u[n2, 0]; uy2 = u[n2, 1]
-    ux3 = u[n3, 0]; uy3 = u[n3, 1]
-    fx0 = 0.0; fy0 = 0.0; fx1 = 0.0; fy1 = 0.0; fx2 = 0.0; fy2 = 0.0; fx3 = 0.0; fy3 = 0.0
+    s = shape[e]
+    c = rot[e, 0]; sn = rot[e, 1]
+    u0x = u[n0, 0]; u0y = u[n0, 1]
+    dx = u[n1, 0] - u0x; dy = u[n1, 1] - u0y
+    ux1 = c * dx + sn * dy; uy1 = c * dy - sn * dx
+    dx = u[n2, 0] - u0x; dy = u[n2, 1] - u0y
+    ux2 = c * dx + sn * dy; uy2 = c * dy - sn * dx
+    dx = u[n3, 0] - u0x; dy = u[n3, 1] - u0y
+    ux3 = c * dx + sn * dy; uy3 = c * dy - sn * dx
+    fx1 = 0.0; fy1 = 0.0; fx2 = 0.0; fy2 = 0.0; fx3 = 0.0; fy3 = 0.0
     wint = 0.0
     for g in range(4):
-        w = Wg[e, g]
-        b0x = Bg[e, g, 0, 0]; b0y = Bg[e, g, 0, 1]
-        b1x = Bg[e, g, 1, 0]; b1y = Bg[e, g, 1, 1]
-        b2x = Bg[e, g, 2, 0]; b2y = Bg[e, g, 2, 1]
-        b3x = Bg[e, g, 3, 0]; b3y = Bg[e, g, 3, 1]
-        F00 = 1.0 + ux0 * b0x + ux1 * b1x + ux2 * b2x + ux3 * b3x
-        F01 = ux0 * b0y + ux1 * b1y + ux2 * b2y + ux3 * b3y
-        F10 = uy0 * b0x + uy1 * b1x + uy2 * b2x + uy3 * b3x
-        F11 = 1.0 + uy0 * b0y + uy1 * b1y + uy2 * b2y + uy3 * b3y
+        w = Wg[s, g]
+        b1x = Bg[s, g, 1, 0]; b1y = Bg[s, g, 1, 1]
+        b2x = Bg[s, g, 2, 0]; b2y = Bg[s, g, 2, 1]
+        b3x = Bg[s, g, 3, 0]; b3y = Bg[s, g, 3, 1]
+        F00 = 1.0 + ux1 * b1x + ux2 * b2x + ux3 * b3x
+        F01 = ux1 * b1y + ux2 * b2y + ux3 * b3y
+        F10 = uy1 * b1x + uy2 * b2x + uy3 * b3x
+        F11 = 1.0 + uy1 * b1y + uy2 * b2y + uy3 * b3y
         P00, P01, P10, P11, psi = svk_2d(F00, F01, F10, F11, lam, mu)
         P00 *= w; P01 *= w; P10 *= w; P11 *= w
         wint += w * psi
-        fx0 += P00 * b0x + P01 * b0y; fy0 += P10 * b0x + P11 * b0y
         fx1 += P00 * b1x + P01 * b1y; fy1 += P10 * b1x + P11 * b1y
         fx2 += P00 * b2x + P01 * b2y; fy2 += P10 * b2x + P11 * b2y
         fx3 += P00 * b3x + P01 * b3y; fy3 += P10 * b3x + P11 * b3y
-    f[n0, 0] -= fx0; f[n0, 1] -= fy0
-    f[n1, 0] -= fx1; f[n1, 1] -= fy1
-    f[n2, 0] -= fx2; f[n2, 1] -= fy2
-    f[n3, 0] -= fx3; f[n3, 1] -= fy3
+    fx0 = 0.0; fy0 = 0.0
+    gx = c * fx1 - sn * fy1; gy = sn * fx1 + c * fy1
+    f[n1, 0] -= gx; f[n1, 1] -= gy
+    fx0 += gx; fy0 += gy
+    gx = c * fx2 - sn * fy2; gy = sn * fx2 + c * fy2
+    f[n2, 0] -= gx; f[n2, 1] -= gy
+    fx0 += gx; fy0 += gy
+    gx = c * fx3 - sn * fy3; gy = sn * fx3 + c * fy3
+    f[n3, 0] -= gx; f[n3, 1] -= gy
+    fx0 += gx; fy0 += gy
+    f[n0, 0] += fx0; f[n0, 1] += fy0
     return wint
 
 
 @njit(cache=True, fastmath=True, inline="always")
-def hex8_full_element(e, conn, u, Bg, Wg, lam, mu, f):
+def hex8_full_element(e, conn, u, Bg, Wg, shape, rot, lam, mu, f):
     """Residual contribution of a fully integrated (2x2x2 Gauss) Hex8 element ``e``; returns W_int in J
     (as :func:`q4_full_element`).
 
-    The element's displacements are read once and its forces summed over the Gauss points in local
-    variables, then added to ``f`` once: the compiler cannot tell ``u`` and ``f`` apart, so a force
-    written inside the Gauss loop would force every displacement to be read again."""
+    The element is a copy of shape ``s = shape[e]`` (gradients ``Bg[s]``, weights ``Wg[s]`` in the shape's
+    canonical frame, :func:`gearrom.fe.explicit.geometry.congruent_shapes`) turned about z by ``rot[e]``
+    (cos, sin). F is formed from the displacements relative to node 0, d_a = u_a - u_0 (a = 1..7), turned
+    into that frame: F = I + sum_a R^T d_a (x) b_a. Rigid translation then leaves F = I exactly, whatever the
+    rounding of the gradients: the displacements of a spinning gear (its rigid rotation, up to its radius)
+    never meet the rounding of sum_a b_a = 0, which would strain the elements. The forces are the exact
+    derivative of that energy (f_a = R f_a^s, f_0 = -sum_a f_a), so the discrete model stays conservative.
+    The displacements are read once and the forces summed over the Gauss points in local variables, then
+    added to ``f`` once: the compiler cannot tell ``u`` and ``f`` apart, so a force written inside the
+    Gauss loop would force every displacement to be read again."""
     n0 = conn[e, 0]; n1 = conn[e, 1]; n2 = conn[e, 2]; n3 = conn[e, 3]
     n4 = conn[e, 4]; n5 = conn[e, 5]; n6 = conn[e, 6]; n7 = conn[e, 7]
-    ux0 = u[n0, 0]; uy0 = u[n0, 1]; uz0 = u[n0, 2]
-    ux1 = u[n1, 0]; uy1 = u[n1, 1]; uz1 = u[n1, 2]
-    ux2 = u[n2, 0]; uy2 = u[n2, 1]; uz2 = u[n2, 2]
-    ux3 = u[n3, 0]; uy3 = u[n3, 1]; uz3 = u[n3, 2]
-    ux4 = u[n4, 0]; uy4 = u[n4, 1]; uz4 = u[n4, 2]
-    ux5 = u[n5, 0]; uy5 = u[n5, 1]; uz5 = u[n5, 2]
-    ux6 = u[n6, 0]; uy6 = u[n6, 1]; uz6 = u[n6, 2]
-    ux7 = u[n7, 0]; uy7 = u[n7, 1]; uz7 = u[n7, 2]
-    fx0 = 0.0; fy0 = 0.0; fz0 = 0.0; fx1 = 0.0; fy1 = 0.0; fz1 = 0.0
-    fx2 = 0.0; fy2 = 0.0; fz2 = 0.0; fx3 = 0.0; fy3 = 0.0; fz3 = 0.0
-    fx4 = 0.0; fy4 = 0.0; fz4 = 0.0; fx5 = 0.0; fy5 = 0.0; fz5 = 0.0
-    fx6 = 0.0; fy6 = 0.0; fz6 = 0.0; fx7 = 0.0; fy7 = 0.0; fz7 = 0.0
+    s = shape[e]
+    c = rot[e, 0]; sn = rot[e, 1]
+    u0x = u[n0, 0]; u0y = u[n0, 1]; u0z = u[n0, 2]
+    dx = u[n1, 0] - u0x; dy = u[n1, 1] - u0y
+    ux1 = c * dx + sn * dy; uy1 = c * dy - sn * dx; uz1 = u[n1, 2] - u0z
+    dx = u[n2, 0] - u0x; dy = u[n2, 1] - u0y
+    ux2 = c * dx + sn * dy; uy2 = c * dy - sn * dx; uz2 = u[n2, 2] - u0z
+    dx = u[n3, 0] - u0x; dy = u[n3, 1] - u0y
+    ux3 = c * dx + sn * dy; uy3 = c * dy - sn * dx; uz3 = u[n3, 2] - u0z
+    dx = u[n4, 0] - u0x; dy = u[n4, 1] - u0y
+    ux4 = c * dx + sn * dy; uy4 = c * dy - sn * dx; uz4 = u[n4, 2] - u0z
+    dx = u[n5, 0] - u0x; dy = u[n5, 1] - u0y
+    ux5 = c * dx + sn * dy; uy5 = c * dy - sn * dx; uz5 = u[n5, 2] - u0z
+    dx = u[n6, 0] - u0x; dy = u[n6, 1] - u0y
+    ux6 = c * dx + sn * dy; uy6 = c * dy - sn * dx; uz6 = u[n6, 2] - u0z
+    dx = u[n7, 0] - u0x; dy = u[n7, 1] - u0y
+    ux7 = c * dx + sn * dy; uy7 = c * dy - sn * dx; uz7 = u[n7, 2] - u0z
+    fx1 = 0.0; fy1 = 0.0; fz1 = 0.0; fx2 = 0.0; fy2 = 0.0; fz2 = 0.0; fx3 = 0.0; fy3 = 0.0; fz3 = 0.0
+    fx4 = 0.0; fy4 = 0.0; fz4 = 0.0; fx5 = 0.0; fy5 = 0.0; fz5 = 0.0; fx6 = 0.0; fy6 = 0.0; fz6 = 0.0; fx7 = 0.0; fy7 = 0.0; fz7 = 0.0
     wint = 0.0
     for g in range(8):
-        bx0 = Bg[e, g, 0, 0]; by0 = Bg[e, g, 0, 1]; bz0 = Bg[e, g, 0, 2]
-        bx1 = Bg[e, g, 1, 0]; by1 = Bg[e, g, 1, 1]; bz1 = Bg[e, g, 1, 2]
-        bx2 = Bg[e, g, 2, 0]; by2 = Bg[e, g, 2, 1]; bz2 = Bg[e, g, 2, 2]
-        bx3 = Bg[e, g, 3, 0]; by3 = Bg[e, g, 3, 1]; bz3 = Bg[e, g, 3, 2]
-        bx4 = Bg[e, g, 4, 0]; by4 = Bg[e, g, 4, 1]; bz4 = Bg[e, g, 4, 2]
-        bx5 = Bg[e, g, 5, 0]; by5 = Bg[e, g, 5, 1]; bz5 = Bg[e, g, 5, 2]
-        bx6 = Bg[e, g, 6, 0]; by6 = Bg[e, g, 6, 1]; bz6 = Bg[e, g, 6, 2]
-        bx7 = Bg[e, g, 7, 0]; by7 = Bg[e, g, 7, 1]; bz7 = Bg[e, g, 7, 2]
-        F00 = (1.0 + ux0 * bx0 + ux1 * bx1 + ux2 * bx2 + ux3 * bx3
+        bx1 = Bg[s, g, 1, 0]; by1 = Bg[s, g, 1, 1]; bz1 = Bg[s, g, 1, 2]
+        bx2 = Bg[s, g, 2, 0]; by2 = Bg[s, g, 2, 1]; bz2 = Bg[s, g, 2, 2]
+        bx3 = Bg[s, g, 3, 0]; by3 = Bg[s, g, 3, 1]; bz3 = Bg[s, g, 3, 2]
+        bx4 = Bg[s, g, 4, 0]; by4 = Bg[s, g, 4, 1]; bz4 = Bg[s, g, 4, 2]
+        bx5 = Bg[s, g, 5, 0]; by5 = Bg[s, g, 5, 1]; bz5 = Bg[s, g, 5, 2]
+        bx6 = Bg[s, g, 6, 0]; by6 = Bg[s, g, 6, 1]; bz6 = Bg[s, g, 6, 2]
+        bx7 = Bg[s, g, 7, 0]; by7 = Bg[s, g, 7, 1]; bz7 = Bg[s, g, 7, 2]
+        F00 = (1.0 + ux1 * bx1 + ux2 * bx2 + ux3 * bx3
                + ux4 * bx4 + ux5 * bx5 + ux6 * bx6 + ux7 * bx7)
-        F01 = (ux0 * by0 + ux1 * by1 + ux2 * by2 + ux3 * by3
+        F01 = (ux1 * by1 + ux2 * by2 + ux3 * by3
                + ux4 * by4 + ux5 * by5 + ux6 * by6 + ux7 * by7)
-        F02 = (ux0 * bz0 + ux1 * bz1 + ux2 * bz2 + ux3 * bz3
+        F02 = (ux1 * bz1 + ux2 * bz2 + ux3 * bz3
                + ux4 * bz4 + ux5 * bz5 + ux6 * bz6 + ux7 * bz7)
-        F10 = (uy0 * bx0 + uy1 * bx1 + uy2 * bx2 + uy3 * bx3
+        F10 = (uy1 * bx1 + uy2 * bx2 + uy3 * bx3
                + uy4 * bx4 + uy5 * bx5 + uy6 * bx6 + uy7 * bx7)
-        F11 = (1.0 + uy0 * by0 + uy1 * by1 + uy2 * by2 + uy3 * by3
+        F11 = (1.0 + uy1 * by1 + uy2 * by2 + uy3 * by3
                + uy4 * by4 + uy5 * by5 + uy6 * by6 + uy7 * by7)
-        F12 = (uy0 * bz0 + uy1 * bz1 + uy2 * bz2 + uy3 * bz3
+        F12 = (uy1 * bz1 + uy2 * bz2 + uy3 * bz3
                + uy4 * bz4 + uy5 * bz5 + uy6 * bz6 + uy7 * bz7)
-        F20 = (uz0 * bx0 + uz1 * bx1 + uz2 * bx2 + uz3 * bx3
+        F20 = (uz1 * bx1 + uz2 * bx2 + uz3 * bx3
                + uz4 * bx4 + uz5 * bx5 + uz6 * bx6 + uz7 * bx7)
-        F21 = (uz0 * by0 + uz1 * by1 + uz2 * by2 + uz3 * by3
+        F21 = (uz1 * by1 + uz2 * by2 + uz3 * by3
                + uz4 * by4 + uz5 * by5 + uz6 * by6 + uz7 * by7)
-        F22 = (1.0 + uz0 * bz0 + uz1 * bz1 + uz2 * bz2 + uz3 * bz3
+        F22 = (1.0 + uz1 * bz1 + uz2 * bz2 + uz3 * bz3
                + uz4 * bz4 + uz5 * bz5 + uz6 * bz6 + uz7 * bz7)
         P00, P01, P02, P10, P11, P12, P20, P21, P22, psi = svk_3d(F00, F01, F02, F10, F11, F12, F20, F21, F22,
                                                                   lam, mu)
-        w = Wg[e, g]
+        w = Wg[s, g]
         wint += w * psi
         P00 *= w; P01 *= w; P02 *= w
         P10 *= w; P11 *= w; P12 *= w
         P20 *= w; P21 *= w; P22 *= w
-        fx0 += P00 * bx0 + P01 * by0 + P02 * bz0
-        fy0 += P10 * bx0 + P11 * by0 + P12 * bz0
-        fz0 += P20 * bx0 + P21 * by0 + P22 * bz0
         fx1 += P00 * bx1 + P01 * by1 + P02 * bz1
         fy1 += P10 * bx1 + P11 * by1 + P12 * bz1
         fz1 += P20 * bx1 + P21 * by1 + P22 * bz1
@@ -289,12 +311,27 @@ def hex8_full_element(e, conn, u, Bg, Wg, lam, mu, f):
         fx7 += P00 * bx7 + P01 * by7 + P02 * bz7
         fy7 += P10 * bx7 + P11 * by7 + P12 * bz7
         fz7 += P20 * bx7 + P21 * by7 + P22 * bz7
-    f[n0, 0] -= fx0; f[n0, 1] -= fy0; f[n0, 2] -= fz0
-    f[n1, 0] -= fx1; f[n1, 1] -= fy1; f[n1, 2] -= fz1
-    f[n2, 0] -= fx2; f[n2, 1] -= fy2; f[n2, 2] -= fz2
-    f[n3, 0] -= fx3; f[n3, 1] -= fy3; f[n3, 2] -= fz3
-    f[n4, 0] -= fx4; f[n4, 1] -= fy4; f[n4, 2] -= fz4
-    f[n5, 0] -= fx5; f[n5, 1] -= fy5; f[n5, 2] -= fz5
-    f[n6, 0] -= fx6; f[n6, 1] -= fy6; f[n6, 2] -= fz6
-    f[n7, 0] -= fx7; f[n7, 1] -= fy7; f[n7, 2] -= fz7
+    fx0 = 0.0; fy0 = 0.0; fz0 = 0.0
+    gx = c * fx1 - sn * fy1; gy = sn * fx1 + c * fy1
+    f[n1, 0] -= gx; f[n1, 1] -= gy; f[n1, 2] -= fz1
+    fx0 += gx; fy0 += gy; fz0 += fz1
+    gx = c * fx2 - sn * fy2; gy = sn * fx2 + c * fy2
+    f[n2, 0] -= gx; f[n2, 1] -= gy; f[n2, 2] -= fz2
+    fx0 += gx; fy0 += gy; fz0 += fz2
+    gx = c * fx3 - sn * fy3; gy = sn * fx3 + c * fy3
+    f[n3, 0] -= gx; f[n3, 1] -= gy; f[n3, 2] -= fz3
+    fx0 += gx; fy0 += gy; fz0 += fz3
+    gx = c * fx4 - sn * fy4; gy = sn * fx4 + c * fy4
+    f[n4, 0] -= gx; f[n4, 1] -= gy; f[n4, 2] -= fz4
+    fx0 += gx; fy0 += gy; fz0 += fz4
+    gx = c * fx5 - sn * fy5; gy = sn * fx5 + c * fy5
+    f[n5, 0] -= gx; f[n5, 1] -= gy; f[n5, 2] -= fz5
+    fx0 += gx; fy0 += gy; fz0 += fz5
+    gx = c * fx6 - sn * fy6; gy = sn * fx6 + c * fy6
+    f[n6, 0] -= gx; f[n6, 1] -= gy; f[n6, 2] -= fz6
+    fx0 += gx; fy0 += gy; fz0 += fz6
+    gx = c * fx7 - sn * fy7; gy = sn * fx7 + c * fy7
+    f[n7, 0] -= gx; f[n7, 1] -= gy; f[n7, 2] -= fz7
+    fx0 += gx; fy0 += gy; fz0 += fz7
+    f[n0, 0] += fx0; f[n0, 1] += fy0; f[n0, 2] += fz0
     return wint

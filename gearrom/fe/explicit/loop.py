@@ -74,7 +74,8 @@ def _table(t, times, vals, npts):
 #: names of the arrays in each argument group of the loop, in order (the driver packs them by these names
 #: from its prepared model ``d``, the run state ``st`` and the output rows ``o``)
 NODE_ARRAYS = ("X", "mass", "kind", "fixmask", "body", "r_center", "r_fd")
-ELEMENT_ARRAYS = ("conn", "B", "V0", "gamma", "khg", "chg", "lam", "mu", "cptr", "bptr", "full", "Bg", "Wg")
+ELEMENT_ARRAYS = ("conn", "B", "V0", "gamma", "khg", "chg", "lam", "mu", "cptr", "bptr", "full", "Bg", "Wg",
+                  "gshape", "grot")
 LOAD_ARRAYS = ("ld_nodes", "ld_ptr", "ld_force", "ld_t", "ld_val", "ld_npts", "ld_fprev", "ld_uprev")
 REFERENCE_ARRAYS = ("r_nodes", "r_ptr", "r_off", "r_M", "r_J", "r_mode", "r_speed", "r_ramp", "r_torque",
                     "r_tramp", "r_k", "r_c", "r_fixtr", "r_kb", "r_cb", "r_pos", "r_vel", "r_acc", "r_th",
@@ -99,7 +100,7 @@ def _run_loop(nsteps, dt, out_every, t0, alpha, alpha_r, margin, cell_h,
     """
     u, v, a, f = state
     X, mass, kind, fixmask, body, r_center, r_fd = nodes
-    conn, B, V0, gamma, khg, chg, lam, mu, cptr, bptr, full, Bg, Wg = elements
+    conn, B, V0, gamma, khg, chg, lam, mu, cptr, bptr, full, Bg, Wg, gshape, grot = elements
     ld_nodes, ld_ptr, ld_force, ld_t, ld_val, ld_npts, ld_fprev, ld_uprev = loads
     (r_nodes, r_ptr, r_off, r_M, r_J, r_mode, r_speed, r_ramp, r_torque, r_tramp, r_k, r_c, r_fixtr, r_kb, r_cb,
      r_pos, r_vel, r_acc, r_th, r_om, r_al, r_prev) = refs
@@ -198,9 +199,9 @@ def _run_loop(nsteps, dt, out_every, t0, alpha, alpha_r, margin, cell_h,
                 for e in range(bptr[b], bptr[b + 1]):
                     if full[e]:
                         if dim == 2:
-                            wint += q4_full_element(e, conn, u, Bg, Wg, lam, mu, f)
+                            wint += q4_full_element(e, conn, u, Bg, Wg, gshape, grot, lam, mu, f)
                         else:
-                            wint += hex8_full_element(e, conn, u, Bg, Wg, lam, mu, f)
+                            wint += hex8_full_element(e, conn, u, Bg, Wg, gshape, grot, lam, mu, f)
                     else:
                         if dim == 2:
                             r0, r1, r2 = q4_element(e, conn, u, v, B, V0, gamma, khg, chg, lam, mu, f)
