@@ -153,15 +153,18 @@ def congruent_shapes(nodes: np.ndarray, elements: np.ndarray, Bg: np.ndarray, Wg
     table[..., 1] = -sr * br[..., 0] + cr * br[..., 1]
     table[..., 2:] = br[..., 2:]
     tw = Wg[rep].copy()
-    # every member against its own gradients and weights
-    t = table[shape]
-    ce, se = c[:, None, None], s[:, None, None]
-    dev = np.maximum(np.abs(ce * t[..., 0] - se * t[..., 1] - Bg[..., 0]).max(axis=(1, 2)),
-                     np.abs(se * t[..., 0] + ce * t[..., 1] - Bg[..., 1]).max(axis=(1, 2)))
-    if Bg.shape[-1] == 3:
-        dev = np.maximum(dev, np.abs(t[..., 2] - Bg[..., 2]).max(axis=(1, 2)))
-    dev = dev / np.abs(Bg).max(axis=(1, 2, 3))
-    dev = np.maximum(dev, np.abs(tw[shape] - Wg).max(axis=1) / np.abs(Wg).max(axis=1))
+    # every member against its own gradients and weights (in blocks: a few (ne, ng, nen, dim) temporaries)
+    dev = np.empty(len(shape))
+    for lo in range(0, len(shape), 65536):
+        sl = slice(lo, lo + 65536)
+        t, b = table[shape[sl]], Bg[sl]
+        ce, se = c[sl, None, None], s[sl, None, None]
+        d = np.maximum(np.abs(ce * t[..., 0] - se * t[..., 1] - b[..., 0]).max(axis=(1, 2)),
+                       np.abs(se * t[..., 0] + ce * t[..., 1] - b[..., 1]).max(axis=(1, 2)))
+        if b.shape[-1] == 3:
+            d = np.maximum(d, np.abs(t[..., 2] - b[..., 2]).max(axis=(1, 2)))
+        dev[sl] = np.maximum(d / np.abs(b).max(axis=(1, 2, 3)),
+                             np.abs(tw[shape[sl]] - Wg[sl]).max(axis=1) / np.abs(Wg[sl]).max(axis=1))
     bad = np.flatnonzero(dev > rtol)
     if bad.size:
         shape[bad] = len(table) + np.arange(bad.size)
