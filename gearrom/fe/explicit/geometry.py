@@ -107,6 +107,15 @@ def full_integration_data(nodes: np.ndarray, elements: np.ndarray, thickness: fl
     return np.ascontiguousarray(dNdX), np.ascontiguousarray(detJ)
 
 
+def _turn_xy(a: np.ndarray, c, s) -> np.ndarray:
+    """``a`` (components on the last axis) with its x and y components turned about z by the angle whose cosine
+    and sine are ``c`` and ``s`` (broadcast against ``a[..., 0]``); other components unchanged."""
+    out = a.copy()
+    out[..., 0] = c * a[..., 0] - s * a[..., 1]
+    out[..., 1] = s * a[..., 0] + c * a[..., 1]
+    return out
+
+
 def congruent_shapes(nodes: np.ndarray, elements: np.ndarray, Bg: np.ndarray, Wg: np.ndarray,
                      rtol: float = 1e-9) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Group elements that are copies of each other by a rotation about the z axis and a translation.
@@ -132,37 +141,25 @@ def congruent_shapes(nodes: np.ndarray, elements: np.ndarray, Bg: np.ndarray, Wg
     rot : ndarray (ne, 2)
         cos and sin of the rotation about z from the canonical frame to the element.
     """
-    X = nodes[elements]                                             # (ne, nen, 3)
+    X = nodes[elements]                                             # (ne, nen, dim)
     rel = X - X[:, :1, :]
     v = np.einsum("a,eai->ei", np.arange(X.shape[1], dtype=float), rel[:, :, :2])
     phi = np.arctan2(v[:, 1], v[:, 0])
     c, s = np.cos(phi), np.sin(phi)
-    can = np.empty_like(rel)
-    can[..., 0] = c[:, None] * rel[..., 0] + s[:, None] * rel[..., 1]
-    can[..., 1] = -s[:, None] * rel[..., 0] + c[:, None] * rel[..., 1]
-    can[..., 2:] = rel[..., 2:]
+    can = _turn_xy(rel, c[:, None], -s[:, None])
     q = 1e-12 * max(float(np.ptp(nodes, axis=0).max()), 1e-300)
     keys = np.round(can.reshape(len(can), -1) / q).astype(np.int64)
     _, rep, shape = np.unique(keys, axis=0, return_index=True, return_inverse=True)
     shape = shape.ravel()
     # the shape's canonical gradients from its representative: b_s = R^T b_rep
-    br = Bg[rep]
-    cr, sr = c[rep][:, None, None], s[rep][:, None, None]
-    table = np.empty_like(br)
-    table[..., 0] = cr * br[..., 0] + sr * br[..., 1]
-    table[..., 1] = -sr * br[..., 0] + cr * br[..., 1]
-    table[..., 2:] = br[..., 2:]
+    table = _turn_xy(Bg[rep], c[rep][:, None, None], -s[rep][:, None, None])
     tw = Wg[rep].copy()
     # every member against its own gradients and weights (in blocks: a few (ne, ng, nen, dim) temporaries)
     dev = np.empty(len(shape))
     for lo in range(0, len(shape), 65536):
         sl = slice(lo, lo + 65536)
-        t, b = table[shape[sl]], Bg[sl]
-        ce, se = c[sl, None, None], s[sl, None, None]
-        d = np.maximum(np.abs(ce * t[..., 0] - se * t[..., 1] - b[..., 0]).max(axis=(1, 2)),
-                       np.abs(se * t[..., 0] + ce * t[..., 1] - b[..., 1]).max(axis=(1, 2)))
-        if b.shape[-1] == 3:
-            d = np.maximum(d, np.abs(t[..., 2] - b[..., 2]).max(axis=(1, 2)))
+        b = Bg[sl]
+        d = np.abs(_turn_xy(table[shape[sl]], c[sl, None, None], s[sl, None, None]) - b).max(axis=(1, 2, 3))
         dev[sl] = np.maximum(d / np.abs(b).max(axis=(1, 2, 3)),
                              np.abs(tw[shape[sl]] - Wg[sl]).max(axis=1) / np.abs(Wg[sl]).max(axis=1))
     bad = np.flatnonzero(dev > rtol)

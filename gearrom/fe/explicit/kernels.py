@@ -255,7 +255,8 @@ def hex8_full_element(e, conn, u, Bg, Wg, shape, rot, lam, mu, f):
     dx = u[n7, 0] - u0x; dy = u[n7, 1] - u0y
     ux7 = c * dx + sn * dy; uy7 = c * dy - sn * dx; uz7 = u[n7, 2] - u0z
     fx1 = 0.0; fy1 = 0.0; fz1 = 0.0; fx2 = 0.0; fy2 = 0.0; fz2 = 0.0; fx3 = 0.0; fy3 = 0.0; fz3 = 0.0
-    fx4 = 0.0; fy4 = 0.0; fz4 = 0.0; fx5 = 0.0; fy5 = 0.0; fz5 = 0.0; fx6 = 0.0; fy6 = 0.0; fz6 = 0.0; fx7 = 0.0; fy7 = 0.0; fz7 = 0.0
+    fx4 = 0.0; fy4 = 0.0; fz4 = 0.0; fx5 = 0.0; fy5 = 0.0; fz5 = 0.0
+    fx6 = 0.0; fy6 = 0.0; fz6 = 0.0; fx7 = 0.0; fy7 = 0.0; fz7 = 0.0
     wint = 0.0
     for g in range(8):
         bx1 = Bg[s, g, 1, 0]; by1 = Bg[s, g, 1, 1]; bz1 = Bg[s, g, 1, 2]
